@@ -1,0 +1,110 @@
+"""The `elastyle` command line: info | convert | train | transfer.
+
+Errors a user can fix print one line (`elastyle: error: ...`) and exit 1 (bad data) or 2 (bad usage);
+`--verbose` adds the traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from collections.abc import Sequence
+
+from elastyle.errors import ElastyleError, OutputError
+
+log = logging.getLogger("elastyle")
+
+
+def _command_info(args: argparse.Namespace) -> int:
+    from elastyle.io.dataset import find_clips
+
+    for clip in find_clips([args.clip]):
+        motion, layout = clip.read()
+        skeleton = motion.skeleton
+        channel_counts = sorted({len(c) for c in layout.channels})
+        print(f"{clip.name}")
+        print(f"  joints:   {skeleton.num_joints} ({', '.join(skeleton.names)})")
+        print(f"  channels: {sum(len(c) for c in layout.channels)} ({'/'.join(map(str, channel_counts))} per joint)")
+        print(f"  frames:   {motion.num_frames} at {motion.fps:.6g} fps ({motion.duration_s:.3f} s)")
+        positions = motion.positions()
+        print(f"  height:   {float(positions[0, :, 1].max() - positions[0, :, 1].min()):.2f} file units (first frame)")
+    return 0
+
+
+def _command_convert(args: argparse.Namespace) -> int:
+    from elastyle.io.bvh import write_bvh
+    from elastyle.io.dataset import read_clip
+    from elastyle.io.files import check_output_path
+    from elastyle.mirror import mirror
+
+    check_output_path(args.output, force=args.force, inputs=(args.input,))
+    motion, layout = read_clip(args.input)
+    if args.fps is not None:
+        if args.fps <= 0:
+            raise OutputError(f"--fps must be positive, got {args.fps}")
+        motion = motion.resample(args.fps)
+        layout = type(layout)(layout.channels, 1.0 / args.fps)
+    if args.mirror:
+        motion = mirror(motion)
+    write_bvh(args.output, motion, layout, force=args.force)
+    log.info("wrote %s (%d frames at %.6g fps)", args.output, motion.num_frames, motion.fps)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="elastyle", description="Zero-shot motion style transfer for BVH clips.")
+    parser.add_argument("--verbose", action="store_true", help="show tracebacks and debug logging")
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    info = commands.add_parser("info", help="joints, channels, frames, fps, duration and height of a clip")
+    info.add_argument("clip", help="a BVH file (or a path inside a zip archive)")
+    info.set_defaults(run=_command_info)
+
+    convert = commands.add_parser("convert", help="resample, mirror and rewrite a BVH clip")
+    convert.add_argument("input")
+    convert.add_argument("-o", "--output", required=True)
+    convert.add_argument("--fps", type=float, help="resample to this frame rate")
+    convert.add_argument("--mirror", action="store_true", help="swap left and right")
+    convert.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    convert.set_defaults(run=_command_convert)
+
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(
+        level=logging.DEBUG if args.verbose else logging.INFO, format="%(message)s", stream=sys.stderr
+    )
+    try:
+        return int(args.run(args) or 0)
+    except ElastyleError as error:
+        if args.verbose:
+            raise
+        print(f"elastyle: error: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("elastyle: interrupted", file=sys.stderr)
+        return 130
+    except OSError as error:
+        if args.verbose:
+            raise
+        print(f"elastyle: error: {error}", file=sys.stderr)
+        return 1
+    except MemoryError:
+        if args.verbose:
+            raise
+        print("elastyle: error: out of memory (try a shorter clip or a smaller style library)", file=sys.stderr)
+        return 1
+    except Exception as error:  # a bug, not bad input: still one line unless --verbose
+        if args.verbose:
+            raise
+        print(f"elastyle: internal error: {type(error).__name__}: {error} (rerun with --verbose and report it)",
+              file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

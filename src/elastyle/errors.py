@@ -1,0 +1,41 @@
+"""Exception types that elastyle raises for problems a user can fix.
+
+Every message is one line that names the file (or joint) and the problem; the CLI prints it as is.
+"""
+
+from __future__ import annotations
+
+
+class ElastyleError(Exception):
+    """Base class of every error caused by input, not by a bug in elastyle."""
+
+
+class BvhError(ElastyleError):
+    """A BVH file that cannot be read or written: `path:line: problem`."""
+
+    def __init__(self, path: str, problem: str, line: int | None = None) -> None:
+        place = f"{path}:{line}" if line is not None else str(path)
+        super().__init__(f"{place}: {problem}")
+        self.path = str(path)
+        self.line = line
+        self.problem = problem
+
+
+class SkeletonMismatchError(ElastyleError):
+    """Two clips (or a clip and a model) whose skeletons differ."""
+
+
+class ModelError(ElastyleError):
+    """A model file that is missing, truncated, foreign or of another format version."""
+
+
+class ClipTooShortError(ElastyleError):
+    """A clip shorter than what an operation needs (for example one patch)."""
+
+
+class DatasetError(ElastyleError):
+    """A data path (file, folder, glob or zip) that yields no usable clips."""
+
+
+class OutputError(ElastyleError):
+    """An output path that cannot or must not be written."""

@@ -1,0 +1,1 @@
+"""Reading and writing clips: BVH files, datasets (files, folders, globs, zips), safe output."""

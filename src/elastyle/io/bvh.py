@@ -1,0 +1,343 @@
+"""BVH reading and writing: the only place with Euler angles and degrees.
+
+BVH rotation channels are intrinsic Euler angles in the order the CHANNELS line lists them, so a joint
+with `Zrotation Xrotation Yrotation` is `Rotation.from_euler("ZXY", degrees)`. Position channels replace
+the joint's OFFSET for that frame.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from elastyle.errors import BvhError
+from elastyle.io.files import write_text_atomic
+from elastyle.motion import Motion
+from elastyle.skeleton import Skeleton
+from elastyle.types import FloatArray
+
+_ROTATION_CHANNELS = {"Xrotation": "X", "Yrotation": "Y", "Zrotation": "Z"}
+_POSITION_CHANNELS = {"Xposition": 0, "Yposition": 1, "Zposition": 2}
+
+
+@dataclass(frozen=True)
+class BvhLayout:
+    """What a BVH file needs beyond the motion itself, so `write_bvh` reproduces its layout.
+
+    channels: per joint (J,), the channel names in file order (3 or 6 of them, or none).
+    frame_time_s: the file's frame time, seconds.
+    """
+
+    channels: tuple[tuple[str, ...], ...]
+    frame_time_s: float
+
+    @staticmethod
+    def default(skeleton: Skeleton, fps: float) -> BvhLayout:
+        """A 6-channel root and 3-channel ZXY joints, for clips that came from no file."""
+        root = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
+        joint = ("Zrotation", "Xrotation", "Yrotation")
+        channels = tuple(root if j == 0 else joint for j in range(skeleton.num_joints))
+        return BvhLayout(channels, 1.0 / fps)
+
+
+class _Lines:
+    """Tokenised lines of the HIERARCHY block with their 1-based line numbers."""
+
+    def __init__(self, path: str, lines: list[str]) -> None:
+        self.path = path
+        self.lines = lines
+        self.index = 0
+
+    def next_tokens(self, what: str) -> tuple[list[str], int]:
+        while self.index < len(self.lines):
+            tokens = self.lines[self.index].split()
+            self.index += 1
+            if tokens:
+                return tokens, self.index
+        raise BvhError(self.path, f"file ends inside HIERARCHY (expected {what})", self.index)
+
+
+def read_bvh(path: str | os.PathLike[str]) -> tuple[Motion, BvhLayout]:
+    """Read a BVH file into a `Motion` and the `BvhLayout` that `write_bvh` needs to reproduce it."""
+    name = str(path)
+    try:
+        data = Path(path).read_bytes()
+    except FileNotFoundError:
+        raise BvhError(name, "no such file") from None
+    except IsADirectoryError:
+        raise BvhError(name, "is a directory, not a BVH file") from None
+    except OSError as error:
+        raise BvhError(name, f"cannot read: {error.strerror or error}") from None
+    return parse_bvh(data, name)
+
+
+def parse_bvh(data: bytes, name: str) -> tuple[Motion, BvhLayout]:
+    """Parse BVH bytes; `name` is used in error messages."""
+    if not data.strip():
+        raise BvhError(name, "empty file")
+    if b"\x00" in data[:4096]:
+        raise BvhError(name, "binary data, not a BVH text file")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:
+        text = data.decode("latin-1")
+    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+    reader = _Lines(name, lines)
+    tokens, line = reader.next_tokens("HIERARCHY")
+    if tokens[0].upper() != "HIERARCHY":
+        raise BvhError(name, f"not a BVH file: starts with {tokens[0][:20]!r}, expected HIERARCHY", line)
+    skeleton, channels = _parse_hierarchy(reader)
+    motion_values, frame_time_s = _parse_motion(reader, sum(len(c) for c in channels))
+    fps = 1.0 / frame_time_s
+    if abs(fps - round(fps)) < 1e-4 * fps:  # 'Frame Time: 0.0333333' means 30 fps
+        fps = float(round(fps))
+    motion = _motion_from_channels(name, skeleton, channels, motion_values, fps)
+    return motion, BvhLayout(tuple(channels), frame_time_s)
+
+
+def _parse_hierarchy(reader: _Lines) -> tuple[Skeleton, list[tuple[str, ...]]]:
+    names: list[str] = []
+    parents: list[int] = []
+    offsets: list[list[float]] = []
+    end_sites: dict[int, list[float]] = {}
+    channels: list[tuple[str, ...]] = []
+    stack: list[int] = []  # joint indices of open braces; -2 marks an End Site
+    path = reader.path
+
+    def parse_offset(expected_owner: str) -> list[float]:
+        tokens, line = reader.next_tokens("OFFSET")
+        if tokens[0].upper() != "OFFSET" or len(tokens) != 4:
+            raise BvhError(path, f"expected 'OFFSET x y z' for {expected_owner}, got {' '.join(tokens)[:60]!r}", line)
+        return [_parse_float(path, t, line) for t in tokens[1:]]
+
+    def expect_brace(line_tokens: tuple[list[str], int]) -> None:
+        tokens, line = line_tokens
+        if tokens != ["{"]:
+            raise BvhError(path, f"expected '{{', got {' '.join(tokens)[:60]!r}", line)
+
+    tokens, line = reader.next_tokens("ROOT")
+    if tokens[0].upper() != "ROOT" or len(tokens) < 2:
+        raise BvhError(path, f"expected 'ROOT name', got {' '.join(tokens)[:60]!r}", line)
+    pending: tuple[str, int, int] | None = (" ".join(tokens[1:]), -1, line)
+    while True:
+        if pending is not None:
+            joint_name, parent, line = pending
+            pending = None
+            if joint_name in names:
+                raise BvhError(path, f"duplicate joint name {joint_name!r}", line)
+            expect_brace(reader.next_tokens("{"))
+            joint = len(names)
+            names.append(joint_name)
+            parents.append(parent)
+            offsets.append(parse_offset(joint_name))
+            tokens, line = reader.next_tokens("CHANNELS")
+            if tokens[0].upper() != "CHANNELS":
+                raise BvhError(path, f"expected CHANNELS for joint {joint_name!r}", line)
+            channels.append(_parse_channels(path, tokens, line, joint_name))
+            stack.append(joint)
+            continue
+        tokens, line = reader.next_tokens("JOINT, End Site or '}'")
+        keyword = tokens[0].upper()
+        if keyword == "JOINT" and len(tokens) >= 2:
+            if not stack or stack[-1] < 0:
+                raise BvhError(path, "JOINT outside a joint", line)
+            pending = (" ".join(tokens[1:]), stack[-1], line)
+        elif keyword == "END":
+            if not stack or stack[-1] < 0:
+                raise BvhError(path, "End Site outside a joint", line)
+            expect_brace(reader.next_tokens("{"))
+            end_sites[stack[-1]] = parse_offset("End Site")
+            stack.append(-2)
+        elif tokens == ["}"]:
+            stack.pop()
+            if not stack:
+                break
+        elif keyword == "MOTION":
+            raise BvhError(path, "MOTION before the hierarchy's braces are closed", line)
+        else:
+            raise BvhError(path, f"unexpected {' '.join(tokens)[:60]!r} in HIERARCHY", line)
+    end_site_array = np.full((len(names), 3), np.nan)
+    for joint, offset in end_sites.items():
+        end_site_array[joint] = offset
+    skeleton = Skeleton(tuple(names), np.array(parents, dtype=np.int64), np.array(offsets), end_site_array)
+    return skeleton, channels
+
+
+def _parse_channels(path: str, tokens: list[str], line: int, joint_name: str) -> tuple[str, ...]:
+    try:
+        count = int(tokens[1])
+    except (IndexError, ValueError):
+        raise BvhError(path, f"CHANNELS of {joint_name!r} lacks a channel count", line) from None
+    names = tuple(tokens[2:])
+    if len(names) != count:
+        raise BvhError(path, f"CHANNELS of {joint_name!r} says {count} but lists {len(names)}", line)
+    for channel in names:
+        if channel not in _ROTATION_CHANNELS and channel not in _POSITION_CHANNELS:
+            raise BvhError(path, f"unknown channel {channel!r} on joint {joint_name!r}", line)
+    if len(set(names)) != len(names):
+        raise BvhError(path, f"repeated channel on joint {joint_name!r}", line)
+    rotation_count = sum(c in _ROTATION_CHANNELS for c in names)
+    if rotation_count not in (0, 3):
+        raise BvhError(path, f"joint {joint_name!r} has {rotation_count} rotation channels (need 0 or 3)", line)
+    return names
+
+
+def _parse_float(path: str, token: str, line: int) -> float:
+    try:
+        value = float(token)
+    except ValueError:
+        raise BvhError(path, f"not a number: {token[:30]!r}", line) from None
+    if not math.isfinite(value):
+        raise BvhError(path, f"non-finite value {token!r}", line)
+    return value
+
+
+def _parse_motion(reader: _Lines, num_channels: int) -> tuple[FloatArray, float]:
+    path = reader.path
+    tokens, line = reader.next_tokens("MOTION")
+    if tokens[0].upper() != "MOTION":
+        raise BvhError(path, f"expected MOTION after the hierarchy, got {' '.join(tokens)[:60]!r}", line)
+    tokens, line = reader.next_tokens("Frames:")
+    if tokens[0].lower() != "frames:" or len(tokens) != 2:
+        raise BvhError(path, "expected 'Frames: N'", line)
+    try:
+        num_frames = int(tokens[1])
+    except ValueError:
+        raise BvhError(path, f"frame count is not an integer: {tokens[1][:30]!r}", line) from None
+    if num_frames <= 0:
+        raise BvhError(path, "no frames (Frames: 0)", line)
+    tokens, line = reader.next_tokens("Frame Time:")
+    if [t.lower() for t in tokens[:2]] != ["frame", "time:"] or len(tokens) != 3:
+        raise BvhError(path, "expected 'Frame Time: seconds'", line)
+    frame_time_s = _parse_float(path, tokens[2], line)
+    if frame_time_s <= 0:
+        raise BvhError(path, f"frame time must be positive, got {tokens[2]}", line)
+    first_row_line = reader.index + 1
+    rows = [row for row in reader.lines[reader.index :]]
+    while rows and not rows[-1].strip():
+        rows.pop()
+    block = " ".join(rows)
+    flat = block.split()
+    if len(flat) != num_frames * num_channels or len(rows) != num_frames:
+        _raise_row_problem(path, rows, first_row_line, num_frames, num_channels)
+    try:
+        values = np.array(flat, dtype=np.float64).reshape(num_frames, num_channels)
+    except ValueError:
+        _raise_value_problem(path, rows, first_row_line)
+        raise
+    if not np.all(np.isfinite(values)):
+        row = int(np.flatnonzero(~np.all(np.isfinite(values), axis=1))[0])
+        raise BvhError(path, "NaN or infinite value in frame data", first_row_line + row)
+    return values, frame_time_s
+
+
+def _raise_row_problem(path: str, rows: list[str], first_line: int, num_frames: int, num_channels: int) -> None:
+    for row_index, row in enumerate(rows):
+        count = len(row.split())
+        if count != num_channels:
+            problem = "empty row" if count == 0 else f"row has {count} values, the hierarchy needs {num_channels}"
+            raise BvhError(path, problem, first_line + row_index)
+    raise BvhError(path, f"'Frames: {num_frames}' but {len(rows)} rows of frame data (truncated?)", first_line)
+
+
+def _raise_value_problem(path: str, rows: list[str], first_line: int) -> None:
+    for row_index, row in enumerate(rows):
+        for token in row.split():
+            _parse_float(path, token, first_line + row_index)
+
+
+def _motion_from_channels(
+    path: str, skeleton: Skeleton, channels: list[tuple[str, ...]], values: FloatArray, fps: float
+) -> Motion:
+    num_frames = values.shape[0]
+    num_joints = skeleton.num_joints
+    translations = np.broadcast_to(skeleton.offsets, (num_frames, num_joints, 3)).copy()
+    rotations = np.zeros((num_frames, num_joints, 3))
+    by_order: dict[str, tuple[list[int], list[list[int]]]] = {}
+    column = 0
+    for joint, joint_channels in enumerate(channels):
+        rotation_columns: list[int] = []
+        order = ""
+        for channel in joint_channels:
+            if channel in _POSITION_CHANNELS:
+                translations[:, joint, _POSITION_CHANNELS[channel]] = values[:, column]
+            else:
+                order += _ROTATION_CHANNELS[channel]
+                rotation_columns.append(column)
+            column += 1
+        if order:
+            joints, columns = by_order.setdefault(order, ([], []))
+            joints.append(joint)
+            columns.append(rotation_columns)
+    for order, (joints, columns) in by_order.items():
+        angles_deg = values[:, np.array(columns)]  # (T, J_order, 3)
+        rotations[:, joints] = (
+            Rotation.from_euler(order, angles_deg.reshape(-1, 3), degrees=True).as_rotvec().reshape(angles_deg.shape)
+        )
+    return Motion(skeleton, rotations, translations, fps)
+
+
+def bvh_text(motion: Motion, layout: BvhLayout | None = None) -> str:
+    """The BVH text of a clip, in `layout` (hierarchy, channel orders, End Sites) when given."""
+    skeleton = motion.skeleton
+    layout = layout or BvhLayout.default(skeleton, motion.fps)
+    if len(layout.channels) != skeleton.num_joints:
+        raise ValueError(f"layout has {len(layout.channels)} joints, the clip {skeleton.num_joints}")
+    out = io.StringIO()
+    out.write("HIERARCHY\n")
+    _write_joint(out, skeleton, layout, 0, 0)
+    out.write(f"MOTION\nFrames: {motion.num_frames}\nFrame Time: {1.0 / motion.fps:.7g}\n")
+    np.savetxt(out, _channel_values(motion, layout), fmt="%.6f", delimiter=" ")
+    return out.getvalue()
+
+
+def write_bvh(path: str | os.PathLike[str], motion: Motion, layout: BvhLayout | None = None, force: bool = False) -> None:
+    """Write a clip as BVH, atomically; refuses to replace an existing file unless `force`."""
+    write_text_atomic(path, bvh_text(motion, layout), force=force)
+
+
+def _write_joint(out: io.StringIO, skeleton: Skeleton, layout: BvhLayout, joint: int, depth: int) -> None:
+    indent = "\t" * depth
+    keyword = "ROOT" if skeleton.parents[joint] < 0 else "JOINT"
+    out.write(f"{indent}{keyword} {skeleton.names[joint]}\n{indent}{{\n")
+    out.write(f"{indent}\tOFFSET {_format_vector(skeleton.offsets[joint])}\n")
+    channels = layout.channels[joint]
+    out.write(f"{indent}\tCHANNELS {len(channels)}{''.join(' ' + c for c in channels)}\n")
+    for child in skeleton.children(joint):
+        _write_joint(out, skeleton, layout, child, depth + 1)
+    if not np.any(np.isnan(skeleton.end_sites[joint])):
+        out.write(f"{indent}\tEnd Site\n{indent}\t{{\n")
+        out.write(f"{indent}\t\tOFFSET {_format_vector(skeleton.end_sites[joint])}\n{indent}\t}}\n")
+    out.write(f"{indent}}}\n")
+
+
+def _format_vector(vector: FloatArray) -> str:
+    return " ".join(f"{v:.6g}" for v in vector)
+
+
+def _channel_values(motion: Motion, layout: BvhLayout) -> FloatArray:
+    """Frame data (T, total channels) in the layout's channel order; angles continuous along time."""
+    columns: list[FloatArray] = []
+    for joint, joint_channels in enumerate(layout.channels):
+        order = "".join(_ROTATION_CHANNELS[c] for c in joint_channels if c in _ROTATION_CHANNELS)
+        angles_deg = np.zeros((motion.num_frames, 3))
+        if order:
+            with warnings.catch_warnings():  # at gimbal lock scipy picks one of the equal answers: fine
+                warnings.simplefilter("ignore", UserWarning)
+                angles_deg = Rotation.from_rotvec(motion.rotations[:, joint]).as_euler(order, degrees=True)
+            angles_deg = np.unwrap(angles_deg, period=360.0, axis=0)
+        rotation_index = 0
+        for channel in joint_channels:
+            if channel in _POSITION_CHANNELS:
+                columns.append(motion.translations[:, joint, _POSITION_CHANNELS[channel]])
+            else:
+                columns.append(angles_deg[:, rotation_index])
+                rotation_index += 1
+    return np.stack(columns, axis=1) if columns else np.zeros((motion.num_frames, 0))

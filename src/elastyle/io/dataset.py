@@ -1,0 +1,134 @@
+"""Finding clips: files, folders, globs, and zip archives (also a path inside one, or a glob inside one).
+
+Every command and test lists its clips through `find_clips` and reads them with `ClipRef.read`.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import glob
+import os
+import re
+import zipfile
+from collections.abc import Iterable
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+from elastyle.errors import BvhError, DatasetError
+from elastyle.io.bvh import BvhLayout, parse_bvh, read_bvh
+from elastyle.motion import Motion
+
+DATA_ENVIRONMENT_VARIABLE = "ELASTYLE_DATA"
+PUBLIC_DATASET_HINT = (
+    "the Bandai Namco Research Motion Dataset 2 is published at "
+    "github.com/BandaiNamcoResearchInc/Bandai-Namco-Research-Motiondataset; "
+    f"point {DATA_ENVIRONMENT_VARIABLE} (or --data) at its zip or unpacked folder"
+)
+
+
+@dataclass(frozen=True)
+class ClipRef:
+    """One BVH clip: a file on disk, or a member of a zip archive."""
+
+    name: str  # what messages show: a path, or "archive.zip/member"
+    archive: str | None = None
+    member: str | None = None
+
+    @property
+    def stem(self) -> str:
+        return Path(self.member or self.name).stem
+
+    def read(self) -> tuple[Motion, BvhLayout]:
+        if self.archive is None:
+            return read_bvh(self.name)
+        try:
+            data = _open_zip(self.archive).read(self.member or "")
+        except (KeyError, zipfile.BadZipFile, OSError) as error:
+            raise BvhError(self.name, f"cannot read from archive: {error}") from None
+        return parse_bvh(data, self.name)
+
+
+@lru_cache(maxsize=8)
+def _open_zip(path: str) -> zipfile.ZipFile:
+    return zipfile.ZipFile(path)
+
+
+def default_data_path() -> Path | None:
+    """`$ELASTYLE_DATA`, else `../shared/data/bandai-namco-2.zip` beside the project or the working folder."""
+    configured = os.environ.get(DATA_ENVIRONMENT_VARIABLE)
+    if configured:
+        return Path(configured)
+    project_root = Path(__file__).resolve().parents[3]
+    for base in (project_root, Path.cwd()):
+        candidate = base.parent / "shared" / "data" / "bandai-namco-2.zip"
+        if candidate.exists():
+            return candidate
+    return None
+
+
+def _split_archive(spec: str) -> tuple[str, str] | None:
+    """'a/b.zip/inner/x*.bvh' -> ('a/b.zip', 'inner/x*.bvh'); 'a/b.zip' -> ('a/b.zip', '')."""
+    parts = Path(spec).parts
+    for index in range(len(parts), 0, -1):
+        head = str(Path(*parts[:index]))
+        if head.lower().endswith(".zip") and Path(head).is_file():
+            return head, "/".join(parts[index:])
+    return None
+
+
+def _archive_clips(archive: str, inner: str) -> list[ClipRef]:
+    try:
+        members = [m for m in _open_zip(archive).namelist() if m.lower().endswith(".bvh")]
+    except (zipfile.BadZipFile, OSError) as error:
+        raise DatasetError(f"{archive}: not a readable zip archive ({error})") from None
+    if inner:
+        pattern = inner if any(c in inner for c in "*?[") else inner.rstrip("/") + "*"
+        members = [m for m in members if fnmatch.fnmatch(m, pattern) or fnmatch.fnmatch(m, "*/" + pattern)]
+    return [ClipRef(f"{archive}/{m}", archive, m) for m in sorted(members)]
+
+
+def find_clips(specs: Iterable[str | os.PathLike[str]], pattern: str | None = None) -> list[ClipRef]:
+    """Every BVH clip that files, folders, globs or zip archives name, sorted within each spec.
+
+    `pattern` (a glob on the file name, e.g. '*walk_normal*') filters the result.
+    """
+    clips: list[ClipRef] = []
+    for raw in specs:
+        spec = str(raw)
+        archive = _split_archive(spec)
+        if archive is not None:
+            found = _archive_clips(*archive)
+        elif Path(spec).is_dir():
+            found = [ClipRef(str(p)) for p in sorted(Path(spec).rglob("*")) if p.suffix.lower() == ".bvh"]
+        elif any(c in spec for c in "*?["):
+            found = [ClipRef(p) for p in sorted(glob.glob(spec, recursive=True)) if Path(p).is_file()]
+        elif Path(spec).exists():
+            found = [ClipRef(spec)]
+        else:
+            raise DatasetError(f"{spec}: no such file, folder or archive")
+        if pattern:
+            found = [c for c in found if fnmatch.fnmatch(Path(c.member or c.name).name, pattern)]
+        if not found:
+            raise DatasetError(f"{spec}: no BVH clips found{f' matching {pattern!r}' if pattern else ''}")
+        clips.extend(found)
+    return clips
+
+
+def read_clip(spec: str | os.PathLike[str]) -> tuple[Motion, BvhLayout]:
+    """Read one clip named by a file path or a path inside a zip archive."""
+    archive = _split_archive(str(spec))
+    if archive is not None and archive[1]:
+        return ClipRef(str(spec), archive[0], archive[1]).read()
+    return read_bvh(spec)
+
+
+_BANDAI_NAME = re.compile(r"dataset-\d+_(?P<content>[a-z-]+)_(?P<style>[a-z]+)_(?P<take>\d+)$")
+
+
+def dataset_label(clip: ClipRef) -> tuple[str, str, int] | None:
+    """(content, style, take) from a Bandai Namco dataset file name, or None for other names."""
+    match = _BANDAI_NAME.match(clip.stem)
+    if match is None:
+        return None
+    return match["content"], match["style"], int(match["take"])

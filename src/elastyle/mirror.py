@@ -1,0 +1,97 @@
+"""Mirroring a clip across the body's sagittal plane: left and right swap, the world reflects across X.
+
+For a joint j with partner m(j), the mirrored world rotation is M W_m(j) A_j, where M = diag(-1, 1, 1)
+reflects the world and A_j is an improper signed permutation in j's local frame that maps j's child
+offsets onto its partner's. Rigs differ in how the right side's local axes relate to the left's, so
+among the A_j that fit the offsets we prefer the parent's, then the one under which the clip's
+heading-relative mean pose is most symmetric. A_m(j) = A_j^T, so mirroring twice is the identity.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from elastyle.body import heading_yaw, pelvis_forward_local, yaw_matrices
+from elastyle.motion import Motion
+from elastyle.rotations import from_matrix
+from elastyle.skeleton import Skeleton, check_mirrorable
+from elastyle.types import FloatArray, IntArray
+
+_REFLECT_X = np.diag([-1.0, 1.0, 1.0])
+
+
+def _improper_signed_permutations() -> FloatArray:
+    candidates = []
+    for permutation in itertools.permutations(range(3)):
+        for signs in itertools.product((1.0, -1.0), repeat=3):
+            matrix = np.zeros((3, 3))
+            matrix[np.arange(3), permutation] = signs
+            if np.linalg.det(matrix) < 0:
+                candidates.append(matrix)
+    return np.array(candidates)  # (24, 3, 3)
+
+
+_CANDIDATES = _improper_signed_permutations()
+
+
+def _child_vectors(skeleton: Skeleton, joint: int, partner: IntArray) -> tuple[FloatArray, FloatArray]:
+    """Offsets (K, 3) of a joint's children and End Site, and of their mirror partners."""
+    children = skeleton.children(joint)
+    ours = [skeleton.offsets[c] for c in children]
+    theirs = [skeleton.offsets[partner[c]] for c in children]
+    if not np.any(np.isnan(skeleton.end_sites[joint])):
+        ours.append(skeleton.end_sites[joint])
+        theirs.append(skeleton.end_sites[partner[joint]])
+    return np.array(ours).reshape(-1, 3), np.array(theirs).reshape(-1, 3)
+
+
+def local_reflections(motion: Motion, partner: IntArray) -> FloatArray:
+    """The per-joint reflections A (J, 3, 3) described in the module docstring."""
+    skeleton = motion.skeleton
+    world_rotations, _ = motion.world()
+    yaw = heading_yaw(world_rotations[:, skeleton.pelvis], pelvis_forward_local(skeleton))
+    relative = np.einsum("tji,tkjl->tkil", yaw_matrices(yaw), world_rotations)  # (T, J, 3, 3) heading frame
+    mean_pose = relative.mean(axis=0)  # (J, 3, 3)
+    scale = max(float(np.abs(skeleton.offsets).max()), 1e-9)
+    reflections = np.zeros((skeleton.num_joints, 3, 3))
+    for joint in range(skeleton.num_joints):
+        other = int(partner[joint])
+        if other < joint:
+            reflections[joint] = reflections[other].T
+            continue
+        candidates = _CANDIDATES
+        if other == joint:  # a centre joint's reflection must be its own inverse
+            candidates = candidates[np.all(np.abs(candidates @ candidates - np.eye(3)) < 1e-9, axis=(1, 2))]
+        ours, theirs = _child_vectors(skeleton, joint, partner)
+        offset_error = np.abs(np.einsum("aij,kj->aki", candidates, ours) - theirs).sum(axis=(1, 2)) / scale
+        pose_error = np.linalg.norm(
+            mean_pose[joint] - _REFLECT_X @ mean_pose[other] @ candidates, axis=(1, 2)
+        ) + np.linalg.norm(mean_pose[other] - _REFLECT_X @ mean_pose[joint] @ candidates.transpose(0, 2, 1), axis=(1, 2))
+        # Offsets decide first (a misfit costs more than any pose difference); then the parent's reflection
+        # is preferred (leaf joints have no offsets to tell), and the clip's mean pose breaks what is left.
+        parent = skeleton.parents[joint]
+        parent_change = 0.0 if parent < 0 else np.linalg.norm(candidates - reflections[parent], axis=(1, 2))
+        reflections[joint] = candidates[np.argmin(10.0 * offset_error + pose_error + parent_change)]
+    return reflections
+
+
+def mirror(motion: Motion, reflections: FloatArray | None = None) -> Motion:
+    """The clip mirrored left/right (see the module docstring); `SkeletonMismatchError` without L/R pairs."""
+    skeleton = motion.skeleton
+    partner = check_mirrorable(skeleton)
+    if reflections is None:
+        reflections = local_reflections(motion, partner)
+    world_rotations, world_positions = motion.world()
+    mirrored_rotations = _REFLECT_X @ world_rotations[:, partner] @ reflections  # (T, J, 3, 3)
+    mirrored_positions = world_positions[:, partner] @ _REFLECT_X  # (T, J, 3)
+    local_rotations = mirrored_rotations.copy()
+    translations = mirrored_positions.copy()
+    parents = skeleton.parents
+    children = np.flatnonzero(parents >= 0)
+    parent_rotations = mirrored_rotations[:, parents[children]]  # (T, J-1, 3, 3)
+    local_rotations[:, children] = np.swapaxes(parent_rotations, -1, -2) @ mirrored_rotations[:, children]
+    delta = mirrored_positions[:, children] - mirrored_positions[:, parents[children]]
+    translations[:, children] = np.einsum("tkji,tkj->tki", parent_rotations, delta)
+    return Motion(skeleton, from_matrix(local_rotations), translations, motion.fps)

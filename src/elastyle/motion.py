@@ -1,0 +1,77 @@
+"""The motion clip type: local joint rotations and translations over time, and resampling."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from elastyle.rotations import slerp_resample
+from elastyle.skeleton import Skeleton, forward_kinematics
+from elastyle.types import FloatArray
+
+
+@dataclass(frozen=True, eq=False)
+class Motion:
+    """A clip on one skeleton.
+
+    rotations:    (T, J, 3) local joint rotations as exp maps, radians.
+    translations: (T, J, 3) local joint translations in the file's length unit: the animated position
+                  channels where a joint has them (the root's world position, for example), else the
+                  skeleton's rest offset repeated.
+    fps:          frames per second.
+    """
+
+    skeleton: Skeleton
+    rotations: FloatArray
+    translations: FloatArray
+    fps: float
+
+    def __post_init__(self) -> None:
+        num_joints = self.skeleton.num_joints
+        if self.rotations.ndim != 3 or self.rotations.shape[1:] != (num_joints, 3):
+            raise ValueError(f"rotations must be (T, {num_joints}, 3), got {self.rotations.shape}")
+        if self.translations.shape != self.rotations.shape:
+            raise ValueError(
+                f"translations must match rotations {self.rotations.shape}, got {self.translations.shape}"
+            )
+        if not self.fps > 0:
+            raise ValueError(f"fps must be positive, got {self.fps}")
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.rotations.shape[0])
+
+    @property
+    def duration_s(self) -> float:
+        return self.num_frames / self.fps
+
+    def slice(self, start: int, stop: int) -> Motion:
+        """Frames [start, stop) as a new clip."""
+        return Motion(self.skeleton, self.rotations[start:stop], self.translations[start:stop], self.fps)
+
+    def world(self) -> tuple[FloatArray, FloatArray]:
+        """World rotation matrices (T, J, 3, 3) and positions (T, J, 3) by forward kinematics."""
+        return forward_kinematics(self.skeleton, self.rotations, self.translations)
+
+    def positions(self) -> FloatArray:
+        """World joint positions (T, J, 3) in file units."""
+        return self.world()[1]
+
+    def sample(self, frame_times: FloatArray, fps: float | None = None) -> Motion:
+        """The clip at fractional frame indices (N,): slerp for rotations, linear for translations."""
+        frame_times = np.clip(np.asarray(frame_times, dtype=np.float64), 0.0, self.num_frames - 1)
+        lower = np.floor(frame_times).astype(np.int64)
+        upper = np.minimum(lower + 1, self.num_frames - 1)
+        weight = (frame_times - lower)[:, None, None]  # (N, 1, 1)
+        translations = (1 - weight) * self.translations[lower] + weight * self.translations[upper]
+        rotations = slerp_resample(self.rotations, frame_times)
+        return Motion(self.skeleton, rotations, translations, self.fps if fps is None else fps)
+
+    def resample(self, fps: float) -> Motion:
+        """The same clip at another frame rate; the duration stays (up to one frame)."""
+        if abs(fps - self.fps) < 1e-9:
+            return self
+        num_frames = max(1, int(round((self.num_frames - 1) * fps / self.fps)) + 1)
+        frame_times = np.arange(num_frames) * (self.fps / fps)  # (N,) source frame indices
+        return self.sample(frame_times, fps)

@@ -1,0 +1,155 @@
+"""The skeleton: joint names, hierarchy and rest offsets, plus forward kinematics."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from elastyle.errors import SkeletonMismatchError
+from elastyle.rotations import to_matrix
+from elastyle.types import FloatArray, IntArray
+
+# Left/right markers in joint names, matched case-insensitively; group 1 is the side word.
+_SIDE_PATTERNS = (r"[_.](l|r)$", r"^(l|r)[_.]", r"(left|right)")
+_OPPOSITE_SIDE = {"l": "r", "r": "l", "left": "right", "right": "left"}
+
+
+@dataclass(frozen=True, eq=False)
+class Skeleton:
+    """A joint hierarchy in file order.
+
+    names:   (J,) joint names, unique.
+    parents: (J,) parent index per joint, -1 for the root; parents[j] < j.
+    offsets: (J, 3) rest offset of each joint from its parent, in the file's length unit.
+    end_sites: (J, 3) End Site offset of each joint (NaN where the joint has none).
+    """
+
+    names: tuple[str, ...]
+    parents: IntArray
+    offsets: FloatArray
+    end_sites: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
+
+    def __post_init__(self) -> None:
+        num_joints = len(self.names)
+        if self.parents.shape != (num_joints,):
+            raise ValueError(f"parents must be ({num_joints},), got {self.parents.shape}")
+        if self.offsets.shape != (num_joints, 3):
+            raise ValueError(f"offsets must be ({num_joints}, 3), got {self.offsets.shape}")
+        if num_joints and (self.parents[0] != -1 or np.any(self.parents[1:] >= np.arange(1, num_joints))):
+            raise ValueError("parents must satisfy parents[0] == -1 and parents[j] < j")
+        if self.end_sites.shape != (num_joints, 3):
+            object.__setattr__(self, "end_sites", np.full((num_joints, 3), np.nan))
+
+    @property
+    def num_joints(self) -> int:
+        return len(self.names)
+
+    def children(self, joint: int) -> list[int]:
+        return [int(j) for j in np.flatnonzero(self.parents == joint)]
+
+    @property
+    def pelvis(self) -> int:
+        """The centre joint whose translation and heading carry the body: the first joint that branches."""
+        for joint in range(self.num_joints):
+            if len(self.children(joint)) >= 2:
+                return joint
+        return 0
+
+    def index(self, name: str) -> int:
+        return self.names.index(name)
+
+    def same_as(self, other: Skeleton) -> bool:
+        return self.names == other.names and bool(np.array_equal(self.parents, other.parents))
+
+    def check_same(self, other: Skeleton, what: str, other_what: str) -> None:
+        """Raise `SkeletonMismatchError` listing the joints that differ between two skeletons."""
+        if self.same_as(other):
+            return
+        ours, theirs = set(self.names), set(other.names)
+        only_ours = [n for n in self.names if n not in theirs]
+        only_theirs = [n for n in other.names if n not in ours]
+        parts = []
+        if only_ours:
+            parts.append(f"only in {what}: {', '.join(only_ours[:8])}{' ...' if len(only_ours) > 8 else ''}")
+        if only_theirs:
+            parts.append(
+                f"only in {other_what}: {', '.join(only_theirs[:8])}{' ...' if len(only_theirs) > 8 else ''}"
+            )
+        if not parts:
+            parts.append("same joints in a different order or hierarchy")
+        raise SkeletonMismatchError(f"skeleton of {what} differs from {other_what} ({'; '.join(parts)})")
+
+    def mirror_pairs(self) -> IntArray:
+        """(J,) index of each joint's left/right partner (itself for centre joints), from joint names."""
+        partner = np.arange(self.num_joints)
+        lookup = {name: j for j, name in enumerate(self.names)}
+        for j, name in enumerate(self.names):
+            for pattern in _SIDE_PATTERNS:
+                match = re.search(pattern, name, flags=re.IGNORECASE)
+                if match is None:
+                    continue
+                other = name[: match.start(1)] + _opposite_side(match.group(1)) + name[match.end(1) :]
+                if lookup.get(other, j) != j:
+                    partner[j] = lookup[other]
+                    break
+        return partner
+
+    def rest_positions(self) -> FloatArray:
+        """World positions (J, 3) of the joints with every rotation zero."""
+        positions = np.zeros((self.num_joints, 3))
+        for joint in range(self.num_joints):
+            parent = self.parents[joint]
+            positions[joint] = self.offsets[joint] + (positions[parent] if parent >= 0 else 0.0)
+        return positions
+
+    def height(self) -> float:
+        """Vertical extent (Y) of the rest pose, in the file's length unit."""
+        positions = self.rest_positions()
+        return float(np.ptp(positions[:, 1]))
+
+
+def _opposite_side(word: str) -> str:
+    """'L' -> 'R', 'left' -> 'right', 'Right' -> 'Left', keeping the letter case."""
+    opposite = _OPPOSITE_SIDE[word.lower()]
+    if word.isupper():
+        return opposite.upper()
+    if word[0].isupper():
+        return opposite.capitalize()
+    return opposite
+
+
+def forward_kinematics(
+    skeleton: Skeleton, local_rotations: FloatArray, local_translations: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Global joint transforms.
+
+    local_rotations: (T, J, 3) exp maps; local_translations: (T, J, 3) file units.
+    Returns world rotation matrices (T, J, 3, 3) and world positions (T, J, 3) in file units.
+    """
+    local_matrices = to_matrix(local_rotations)  # (T, J, 3, 3)
+    world_matrices = np.empty_like(local_matrices)
+    world_positions = np.empty_like(local_translations)
+    for joint in range(skeleton.num_joints):
+        parent = skeleton.parents[joint]
+        if parent < 0:
+            world_matrices[:, joint] = local_matrices[:, joint]
+            world_positions[:, joint] = local_translations[:, joint]
+            continue
+        world_matrices[:, joint] = world_matrices[:, parent] @ local_matrices[:, joint]
+        world_positions[:, joint] = world_positions[:, parent] + np.einsum(
+            "tij,tj->ti", world_matrices[:, parent], local_translations[:, joint]
+        )
+    return world_matrices, world_positions
+
+
+def check_mirrorable(skeleton: Skeleton) -> IntArray:
+    """Partner indices (J,), or `SkeletonMismatchError` when no left/right joint pairs are recognisable."""
+    partner = skeleton.mirror_pairs()
+    if np.all(partner == np.arange(skeleton.num_joints)):
+        raise SkeletonMismatchError(
+            "cannot mirror: no left/right joint pairs found in the joint names "
+            "(expected markers such as _L/_R, Left/Right, l_/r_ or .L/.R)"
+        )
+    return partner

@@ -1,0 +1,118 @@
+"""BVH reading and writing: hand-made fixtures with hand-checkable answers, and real dataset clips."""
+
+from __future__ import annotations
+
+import random
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from elastyle import BvhError, read_bvh, write_bvh
+from elastyle.io.bvh import bvh_text, parse_bvh
+from tests.conftest import THREE_CHANNEL_BVH
+
+
+def test_three_channel_fixture_has_hand_checkable_positions(three_channel_bvh: Path) -> None:
+    motion, layout = read_bvh(three_channel_bvh)
+    assert motion.skeleton.names == ("pelvis", "spine", "LeftLeg", "LeftFoot", "RightLeg", "RightFoot")
+    assert layout.channels[1] == ("Xrotation", "Yrotation", "Zrotation")
+    assert motion.fps == pytest.approx(120, rel=1e-4)
+    positions = motion.positions()
+    np.testing.assert_allclose(positions[0, 3], [3, 10, 0], atol=1e-9)
+    # frame 1: pelvis rotated 90 degrees about X, so the spine (0, 10, 0) points along +Z
+    np.testing.assert_allclose(positions[1, 1], [1, 20, 10], atol=1e-9)
+    # frame 2: pelvis yaw 90 degrees about Y: the left leg offset (3, 0, 0) goes to (0, 0, -3)
+    np.testing.assert_allclose(positions[2, 2], [2, 20, -3], atol=1e-9)
+
+
+def test_euler_order_is_intrinsic_per_joint(three_channel_bvh: Path) -> None:
+    motion, _ = read_bvh(three_channel_bvh)
+    expected = Rotation.from_euler("XYZ", [45, 30, 0], degrees=True).as_rotvec()
+    np.testing.assert_allclose(motion.rotations[2, 3], expected, atol=1e-12)
+    extrinsic = Rotation.from_euler("xyz", [45, 30, 0], degrees=True).as_rotvec()
+    assert not np.allclose(motion.rotations[2, 3], extrinsic, atol=1e-3)
+
+
+def test_write_keeps_layout_and_round_trips(three_channel_bvh: Path, tmp_path: Path) -> None:
+    motion, layout = read_bvh(three_channel_bvh)
+    out = tmp_path / "out.bvh"
+    write_bvh(out, motion, layout)
+    again, layout_again = read_bvh(out)
+    assert layout_again.channels == layout.channels
+    assert "End Site" in out.read_text()
+    np.testing.assert_allclose(again.positions(), motion.positions(), atol=1e-4)
+
+
+def test_tabs_crlf_and_spaces_are_accepted() -> None:
+    text = THREE_CHANNEL_BVH.replace("  ", "\t").replace("\n", "\r\n")
+    motion, _ = parse_bvh(text.encode(), "crlf.bvh")
+    assert motion.num_frames == 3
+
+
+def test_existing_output_is_not_overwritten_without_force(three_channel_bvh: Path, tmp_path: Path) -> None:
+    motion, layout = read_bvh(three_channel_bvh)
+    out = tmp_path / "out.bvh"
+    out.write_text("mine")
+    with pytest.raises(Exception, match="already exists"):
+        write_bvh(out, motion, layout)
+    assert out.read_text() == "mine"
+    write_bvh(out, motion, layout, force=True)
+    assert out.read_text().startswith("HIERARCHY")
+
+
+@pytest.mark.parametrize(
+    ("mutate", "message"),
+    [
+        (lambda t: t[: t.index("MOTION") - 40], "ends inside HIERARCHY"),
+        (lambda t: t.replace("Frames: 3", "Frames: 4"), "Frames: 4"),
+        (lambda t: t.replace("0 20 0 0 0 0 0", "0 20 0 0 0 0 0 7", 1), "row has 22 values"),
+        (lambda t: t.replace("1 20 0 90", "1 20 0 x90"), "not a number"),
+        (lambda t: t.replace("1 20 0 90", "1 20 0 nan"), "NaN or infinite"),
+        (lambda t: t.replace("Xrotation Yrotation Zrotation\n    End", "Wrotation Yrotation Zrotation\n    End"), "unknown channel"),
+        (lambda t: t.replace("JOINT RightLeg", "JOINT LeftLeg"), "duplicate joint name"),
+        (lambda t: t.replace("Frames: 3", "Frames: 0"), "no frames"),
+        (lambda t: "", "empty file"),
+        (lambda t: "hello", "not a BVH file"),
+    ],
+)
+def test_bad_files_raise_one_line_bvh_error(mutate, message: str) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(BvhError, match=message) as raised:
+        parse_bvh(mutate(THREE_CHANNEL_BVH).encode(), "bad.bvh")
+    assert "\n" not in str(raised.value)
+    assert str(raised.value).startswith("bad.bvh")
+
+
+def test_missing_file_and_directory(tmp_path: Path) -> None:
+    with pytest.raises(BvhError, match="no such file"):
+        read_bvh(tmp_path / "nope.bvh")
+    with pytest.raises(BvhError, match="is a directory"):
+        read_bvh(tmp_path)
+
+
+@pytest.mark.slow
+def test_dataset_sample_round_trips_channels_and_positions(dataset_clips) -> None:  # type: ignore[no-untyped-def]
+    sample = random.Random(0).sample(dataset_clips, 25)
+    for clip in sample:
+        motion, layout = clip.read()
+        text = bvh_text(motion, layout)
+        again, _ = parse_bvh(text.encode(), "again")
+        np.testing.assert_allclose(again.positions(), motion.positions(), atol=1e-4, err_msg=clip.name)
+        # channels: positions exactly, angles equal as rotations (Euler angles may differ by 360 degrees)
+        np.testing.assert_allclose(again.translations, motion.translations, atol=1e-4)
+        relative = Rotation.from_rotvec(again.rotations.reshape(-1, 3)).inv() * Rotation.from_rotvec(
+            motion.rotations.reshape(-1, 3)
+        )
+        assert np.degrees(relative.magnitude()).max() < 1e-4, clip.name
+
+
+def test_dataset_clip_matches_dataset_description(walk_clip) -> None:  # type: ignore[no-untyped-def]
+    motion, layout = walk_clip.read()
+    assert motion.skeleton.num_joints == 22
+    assert all(len(c) == 6 for c in layout.channels)
+    assert motion.fps == pytest.approx(30, rel=1e-4)
+    positions = motion.positions()
+    # a person about 1.5 to 1.9 m tall, standing on the ground (cm)
+    assert 140 < positions[:, :, 1].max() - 0 < 190
+    assert abs(positions[:, :, 1].min()) < 10

@@ -1,0 +1,91 @@
+"""Features, mirroring and resampling on real clips and on a 3-channel skeleton of another naming scheme."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from elastyle import SkeletonMismatchError, mirror, read_bvh
+from elastyle.features import FeatureSpec
+from elastyle.rotations import continuous_log, from_quat, to_quat
+
+
+def test_quaternion_round_trip_and_identity_is_safe() -> None:
+    rng = np.random.default_rng(0)
+    rotvecs = rng.normal(size=(100, 3))
+    rotvecs /= np.maximum(1, np.linalg.norm(rotvecs, axis=1, keepdims=True) / 3.0)
+    rotvecs[0] = 0.0
+    np.testing.assert_allclose(from_quat(to_quat(rotvecs)), rotvecs, atol=1e-9)
+    assert np.all(np.isfinite(from_quat(to_quat(np.zeros((1, 3))))))
+
+
+def test_continuous_log_never_jumps_across_pi() -> None:
+    angles = np.linspace(2.8, 3.5, 50)  # passes through pi
+    rotvecs = np.stack([np.zeros_like(angles), angles, np.zeros_like(angles)], axis=1)
+    rotvecs[angles > np.pi, 1] -= 2 * np.pi  # as scipy would give them: a jump
+    smooth = continuous_log(rotvecs[:, None, :], axis=0)[:, 0]
+    assert np.abs(np.diff(smooth, axis=0)).max() < 0.05
+
+
+def test_features_round_trip_real_clips(dataset_clips) -> None:  # type: ignore[no-untyped-def]
+    clips = [c for c in dataset_clips if c.stem.endswith(("walk_normal_001", "run_active_003", "wave-left-hand_elderly_002"))]
+    motions = [c.read()[0] for c in clips]
+    spec = FeatureSpec.fit(motions)
+    for motion in motions:
+        features, root = spec.encode(motion)
+        assert features.shape == (motion.num_frames, spec.num_channels)
+        decoded = spec.decode(features, root, motion.fps)
+        np.testing.assert_allclose(decoded.positions(), motion.positions(), atol=1e-3)
+        # continuous: no rotation feature jumps by more than 1 rad between frames
+        assert np.abs(np.diff(features[:, :-3], axis=0)).max() < 1.0
+
+
+def test_mirror_twice_is_identity_and_reflects_fk(walk_clip) -> None:  # type: ignore[no-untyped-def]
+    motion, _ = walk_clip.read()
+    mirrored = mirror(motion)
+    partner = motion.skeleton.mirror_pairs()
+    reflected = motion.positions()[:, partner] * np.array([-1.0, 1.0, 1.0])
+    np.testing.assert_allclose(mirrored.positions(), reflected, atol=1e-6)
+    twice = mirror(mirrored)
+    np.testing.assert_allclose(twice.positions(), motion.positions(), atol=1e-6)
+    np.testing.assert_allclose(twice.rotations, motion.rotations, atol=1e-6)
+
+
+def test_mirror_on_other_naming_scheme(three_channel_bvh: Path) -> None:
+    motion, _ = read_bvh(three_channel_bvh)
+    partner = motion.skeleton.mirror_pairs()
+    assert motion.skeleton.names[partner[2]] == "RightLeg"
+    mirrored = mirror(motion)
+    np.testing.assert_allclose(
+        mirrored.positions(), motion.positions()[:, partner] * np.array([-1.0, 1.0, 1.0]), atol=1e-9
+    )
+
+
+def test_mirror_without_pairs_is_a_clear_error(three_channel_bvh: Path, tmp_path: Path) -> None:
+    text = three_channel_bvh.read_text().replace("LeftLeg", "legA").replace("RightLeg", "legB")
+    text = text.replace("LeftFoot", "footA").replace("RightFoot", "footB")
+    path = tmp_path / "nopairs.bvh"
+    path.write_text(text)
+    motion, _ = read_bvh(path)
+    with pytest.raises(SkeletonMismatchError, match="no left/right joint pairs"):
+        mirror(motion)
+
+
+@pytest.mark.parametrize("name_pairs", [("Foot_L", "Foot_R"), ("l_hip", "r_hip"), ("arm.L", "arm.R"), ("LeftArm", "RightArm")])
+def test_side_markers_are_recognised(name_pairs: tuple[str, str]) -> None:
+    from elastyle.skeleton import Skeleton
+
+    names = ("root", *name_pairs)
+    skeleton = Skeleton(names, np.array([-1, 0, 0]), np.zeros((3, 3)))
+    assert skeleton.mirror_pairs().tolist() == [0, 2, 1]
+
+
+def test_resample_keeps_duration_and_poses(walk_clip) -> None:  # type: ignore[no-untyped-def]
+    motion, _ = walk_clip.read()
+    doubled = motion.resample(60.0)
+    assert doubled.num_frames == 2 * motion.num_frames - 1
+    np.testing.assert_allclose(doubled.positions()[::2], motion.positions(), atol=1e-6)
+    back = doubled.resample(motion.fps)
+    np.testing.assert_allclose(back.positions(), motion.positions(), atol=1e-4)
