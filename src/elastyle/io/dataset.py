@@ -43,14 +43,16 @@ class ClipRef:
         if self.archive is None:
             return read_bvh(self.name)
         try:
-            data = _open_zip(self.archive).read(self.member or "")
+            data = _open_zip(self.archive, os.getpid()).read(self.member or "")
         except (KeyError, zipfile.BadZipFile, OSError) as error:
             raise BvhError(self.name, f"cannot read from archive: {error}") from None
         return parse_bvh(data, self.name)
 
 
 @lru_cache(maxsize=8)
-def _open_zip(path: str) -> zipfile.ZipFile:
+def _open_zip(path: str, process_id: int) -> zipfile.ZipFile:
+    """An open archive per process (a handle shared across a fork would interleave reads)."""
+    del process_id
     return zipfile.ZipFile(path)
 
 
@@ -79,7 +81,7 @@ def _split_archive(spec: str) -> tuple[str, str] | None:
 
 def _archive_clips(archive: str, inner: str) -> list[ClipRef]:
     try:
-        members = [m for m in _open_zip(archive).namelist() if m.lower().endswith(".bvh")]
+        members = [m for m in _open_zip(archive, os.getpid()).namelist() if m.lower().endswith(".bvh")]
     except (zipfile.BadZipFile, OSError) as error:
         raise DatasetError(f"{archive}: not a readable zip archive ({error})") from None
     if inner:

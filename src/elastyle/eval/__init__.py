@@ -1,0 +1,1 @@
+"""Measuring motion: foot contacts, foot skating, cadence, jerk, reconstruction errors."""

@@ -1,0 +1,165 @@
+"""Figures of a clip or a pair of clips, in physical units (cm, s) whatever the file's unit.
+
+Legs are found from the skeleton: each left/right pair of the pelvis's children starts a leg, its
+deepest joint is the toe and the toe's parent the ankle. Thresholds are relative to the leg length.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from elastyle.motion import Motion
+from elastyle.skeleton import Skeleton
+from elastyle.types import BoolArray, FloatArray, IntArray
+
+CONTACT_HEIGHT_OF_LEG = 0.025  # a toe within 2.5 % of the leg length (2 cm here) of its ground level is down
+
+
+def centimetres_per_unit(skeleton: Skeleton) -> float:
+    """Guess the file's length unit from the rest height: metres, centimetres or inches (default cm)."""
+    height = skeleton.height()
+    if height < 5:
+        return 100.0
+    if 40 < height < 90:
+        return 2.54
+    return 1.0
+
+
+@dataclass(frozen=True)
+class Limbs:
+    """Joint indices: toes (F,), ankles (F,), hips (F,), and hands (H,) (end joints of arm chains)."""
+
+    toes: IntArray
+    ankles: IntArray
+    hips: IntArray
+    hands: IntArray
+
+
+def _deepest_descendant(skeleton: Skeleton, joint: int) -> int:
+    depth = {joint: 0}
+    for j in range(joint + 1, skeleton.num_joints):
+        if skeleton.parents[j] in depth:
+            depth[j] = depth[int(skeleton.parents[j])] + 1
+    return max(depth, key=lambda j: (depth[j], -j))
+
+
+def find_limbs(skeleton: Skeleton) -> Limbs:
+    partner = skeleton.mirror_pairs()
+    pelvis = skeleton.pelvis
+    legs = [c for c in skeleton.children(pelvis) if partner[c] != c]
+    toes = [_deepest_descendant(skeleton, leg) for leg in legs]
+    ankles = [int(skeleton.parents[t]) if skeleton.parents[t] != leg else t for t, leg in zip(toes, legs)]
+    spine = [c for c in skeleton.children(pelvis) if partner[c] == c]
+    hands: list[int] = []
+    if spine:
+        below_spine = {spine[0]}
+        for j in range(spine[0] + 1, skeleton.num_joints):
+            if skeleton.parents[j] in below_spine:
+                below_spine.add(j)
+        # arm roots: sided joints below the spine whose parent is a centre joint
+        roots = [j for j in sorted(below_spine) if partner[j] != j and partner[skeleton.parents[j]] == skeleton.parents[j]]
+        hands = [_deepest_descendant(skeleton, r) for r in roots]
+    return Limbs(np.array(toes), np.array(ankles), np.array(legs), np.array(hands, dtype=np.int64))
+
+
+def leg_length(skeleton: Skeleton, limbs: Limbs) -> float:
+    rest = skeleton.rest_positions()
+    if len(limbs.toes) == 0:
+        return skeleton.height() / 2
+    return float(np.mean(np.linalg.norm(rest[limbs.hips] - rest[limbs.ankles], axis=-1)))
+
+
+def foot_contacts(motion: Motion, positions: FloatArray | None = None) -> BoolArray:
+    """(T, F) True where a toe is within the contact height of the clip's ground level (its 5th percentile)."""
+    limbs = find_limbs(motion.skeleton)
+    positions = motion.positions() if positions is None else positions
+    threshold = CONTACT_HEIGHT_OF_LEG * leg_length(motion.skeleton, limbs)
+    toe_height = positions[:, limbs.toes, 1]
+    ground = np.percentile(toe_height, 5)
+    return toe_height - ground < threshold
+
+
+def foot_skating_cm_s(motion: Motion, positions: FloatArray | None = None) -> float:
+    """Mean horizontal toe speed (cm/s) over the frames where that foot is in contact."""
+    positions = motion.positions() if positions is None else positions
+    limbs = find_limbs(motion.skeleton)
+    contacts = foot_contacts(motion, positions)[1:] & foot_contacts(motion, positions)[:-1]  # (T-1, F)
+    velocity = np.diff(positions[:, limbs.toes][:, :, [0, 2]], axis=0) * motion.fps  # (T-1, F, 2)
+    speed = np.linalg.norm(velocity, axis=-1) * centimetres_per_unit(motion.skeleton)
+    return float(speed[contacts].mean()) if contacts.any() else 0.0
+
+
+def jerk(positions: FloatArray, fps: float) -> float:
+    """Mean magnitude of the third time derivative of joint positions (units/s^3)."""
+    if positions.shape[0] < 4:
+        return 0.0
+    third = np.diff(positions, n=3, axis=0) * fps**3
+    return float(np.linalg.norm(third, axis=-1).mean())
+
+
+def _dominant_frequency_hz(signal: FloatArray, fps: float, low_hz: float = 0.3, high_hz: float = 3.0) -> float:
+    signal = signal - signal.mean()
+    if signal.shape[0] < 8 or not np.any(signal):
+        return float("nan")
+    windowed = signal * np.hanning(signal.shape[0])
+    size = max(8192, 1 << int(np.ceil(np.log2(signal.shape[0] * 8))))
+    spectrum = np.abs(np.fft.rfft(windowed, n=size))
+    frequencies = np.fft.rfftfreq(size, 1.0 / fps)
+    band = (frequencies >= low_hz) & (frequencies <= high_hz)
+    return float(frequencies[band][np.argmax(spectrum[band])])
+
+
+def _lateral_difference(motion: Motion, positions: FloatArray, left: int, right: int) -> FloatArray:
+    """Signed distance (T,) of joint `left` ahead of joint `right` along the body's travel direction."""
+    from elastyle.body import heading_yaw, pelvis_forward_local
+
+    world_rotations, _ = motion.world()
+    yaw = heading_yaw(world_rotations[:, motion.skeleton.pelvis], pelvis_forward_local(motion.skeleton))
+    forward = np.stack([np.sin(yaw), np.cos(yaw)], axis=1)  # (T, 2) x, z
+    delta = positions[:, left][:, [0, 2]] - positions[:, right][:, [0, 2]]
+    return np.sum(delta * forward, axis=1)
+
+
+def cadence_steps_s(motion: Motion, positions: FloatArray | None = None) -> float:
+    """Steps per second: twice the dominant frequency of one foot's lead over the other."""
+    positions = motion.positions() if positions is None else positions
+    limbs = find_limbs(motion.skeleton)
+    if len(limbs.ankles) < 2:
+        return float("nan")
+    lead = _lateral_difference(motion, positions, int(limbs.ankles[0]), int(limbs.ankles[1]))
+    return 2.0 * _dominant_frequency_hz(lead, motion.fps, 0.25, 2.0)
+
+
+def arm_swing_hz(motion: Motion, positions: FloatArray | None = None) -> float:
+    """Dominant frequency of one hand's lead over the other (a full swing cycle per second)."""
+    positions = motion.positions() if positions is None else positions
+    limbs = find_limbs(motion.skeleton)
+    if len(limbs.hands) < 2:
+        return float("nan")
+    lead = _lateral_difference(motion, positions, int(limbs.hands[0]), int(limbs.hands[1]))
+    return _dominant_frequency_hz(lead, motion.fps, 0.25, 2.0)
+
+
+def timing_error(output_steps_s: float, content_steps_s: float, style_steps_s: float) -> float:
+    """|f_out - f_style| / |f_content - f_style|: 0 = the style's timing, 1 = the content's."""
+    return abs(output_steps_s - style_steps_s) / max(abs(content_steps_s - style_steps_s), 1e-9)
+
+
+def reconstruction_errors(original: Motion, reconstructed: Motion) -> dict[str, float]:
+    """Pelvis-aligned mean joint position error and end-effector error (cm), skating and jerk ratios."""
+    scale = centimetres_per_unit(original.skeleton)
+    limbs = find_limbs(original.skeleton)
+    ours, theirs = original.positions(), reconstructed.positions()
+    pelvis = original.skeleton.pelvis
+    aligned = (theirs - theirs[:, pelvis : pelvis + 1]) - (ours - ours[:, pelvis : pelvis + 1])
+    error = np.linalg.norm(aligned, axis=-1) * scale  # (T, J)
+    effectors = np.concatenate([limbs.toes, limbs.hands])
+    return {
+        "joint_error_cm": float(error.mean()),
+        "end_effector_error_cm": float(error[:, effectors].mean()),
+        "skating_cm_s": foot_skating_cm_s(reconstructed, theirs),
+        "original_skating_cm_s": foot_skating_cm_s(original, ours),
+        "jerk_ratio": jerk(theirs, original.fps) / max(jerk(ours, original.fps), 1e-9),
+    }

@@ -1,0 +1,1 @@
+"""The autoencoder: config, numpy inference, and the model file."""

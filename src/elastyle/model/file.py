@@ -1,0 +1,129 @@
+"""The model file: one plain `.npz` array archive (no pickle) holding everything a transfer needs.
+
+Keys: format_version, config (JSON), fps, joint names and parents, offsets, reference rotations,
+pelvis forward axis, normalisation mean/std, weights, and a JSON metadata string (training figures).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import zipfile
+from dataclasses import asdict, dataclass, field
+from importlib import resources
+from io import BytesIO
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from elastyle.errors import ModelError
+from elastyle.features import FeatureSpec
+from elastyle.io.files import write_bytes_atomic
+from elastyle.model.autoencoder import Autoencoder, AutoencoderWeights
+from elastyle.model.config import ModelConfig
+from elastyle.motion import Motion
+from elastyle.skeleton import Skeleton
+from elastyle.types import FloatArray
+
+FORMAT_VERSION = 1
+PRETRAINED_NAME = "bandai-namco-2.npz"
+_WEIGHT_NAMES = ("conv1", "bias1", "conv2", "bias2", "deconv2", "debias2", "deconv1", "debias1")
+
+
+@dataclass(frozen=True, eq=False)
+class StyleModel:
+    """A trained autoencoder with its feature spec and normalisation: everything `transfer` needs.
+
+    feature_mean, feature_std: (C,) per-channel normalisation of the features.
+    """
+
+    config: ModelConfig
+    features: FeatureSpec
+    feature_mean: FloatArray
+    feature_std: FloatArray
+    autoencoder: Autoencoder
+    fps: float
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def skeleton(self) -> Skeleton:
+        return self.features.skeleton
+
+    def normalise(self, features: FloatArray) -> FloatArray:
+        return (features - self.feature_mean) / self.feature_std
+
+    def denormalise(self, features: FloatArray) -> FloatArray:
+        return features * self.feature_std + self.feature_mean
+
+    def check_clip(self, motion: Motion, what: str) -> None:
+        self.skeleton.check_same(motion.skeleton, "the model", what)
+
+
+def save_model(path: str | os.PathLike[str], model: StyleModel, force: bool = False) -> None:
+    """Write a model file atomically (refusing to overwrite unless `force`)."""
+    skeleton = model.skeleton
+    arrays: dict[str, Any] = {
+        "format_version": np.array(FORMAT_VERSION),
+        "config": np.array(json.dumps(asdict(model.config))),
+        "metadata": np.array(json.dumps(model.metadata)),
+        "fps": np.array(model.fps),
+        "joint_names": np.array(skeleton.names),
+        "joint_parents": skeleton.parents,
+        "joint_offsets": skeleton.offsets,
+        "end_sites": skeleton.end_sites,
+        "reference_rotations": model.features.reference_rotations,
+        "forward_local": model.features.forward_local,
+        "feature_mean": model.feature_mean,
+        "feature_std": model.feature_std,
+    }
+    for name in _WEIGHT_NAMES:
+        value = getattr(model.autoencoder.weights, name)
+        if value is not None:
+            arrays[f"weight_{name}"] = value
+    buffer = BytesIO()
+    np.savez_compressed(buffer, **arrays)
+    write_bytes_atomic(path, buffer.getvalue(), force=force)
+
+
+def default_model_path() -> Path:
+    """The pretrained model shipped inside the package."""
+    return Path(str(resources.files("elastyle") / "pretrained" / PRETRAINED_NAME))
+
+
+def load_model(path: str | os.PathLike[str] | None = None) -> StyleModel:
+    """Load a model file (the shipped pretrained model when `path` is None); `ModelError` if unusable."""
+    path = default_model_path() if path is None else Path(path)
+    if not path.exists():
+        raise ModelError(f"{path}: no such model file")
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            data = {key: archive[key] for key in archive.files}
+    except (zipfile.BadZipFile, OSError, ValueError, EOFError) as error:
+        raise ModelError(f"{path}: not an elastyle model file (truncated or foreign: {error})") from None
+    if "format_version" not in data:
+        raise ModelError(f"{path}: not an elastyle model file (no format_version)")
+    version = int(data["format_version"])
+    if version != FORMAT_VERSION:
+        raise ModelError(f"{path}: model format version {version}, this elastyle reads {FORMAT_VERSION}")
+    try:
+        config = ModelConfig(**json.loads(str(data["config"])))
+        skeleton = Skeleton(
+            tuple(str(n) for n in data["joint_names"]),
+            data["joint_parents"].astype(np.int64),
+            data["joint_offsets"],
+            data["end_sites"],
+        )
+        spec = FeatureSpec(skeleton, data["reference_rotations"], data["forward_local"])
+        weights = AutoencoderWeights(**{n: data[f"weight_{n}"] for n in _WEIGHT_NAMES if f"weight_{n}" in data})
+        return StyleModel(
+            config,
+            spec,
+            data["feature_mean"],
+            data["feature_std"],
+            Autoencoder(config, weights),
+            float(data["fps"]),
+            json.loads(str(data["metadata"])),
+        )
+    except (KeyError, TypeError, ValueError) as error:
+        raise ModelError(f"{path}: incomplete or inconsistent model file ({error})") from None

@@ -1,0 +1,1 @@
+"""The style converter: whitening/colouring, elastic patch search, and the transfer pipeline."""

@@ -1,0 +1,121 @@
+"""The elastic patch search (METHOD.md section 4, steps 3 to 6).
+
+Content patches of L frames are compared, after resampling each candidate source length L' to L
+frames, with every style window of L frames by cosine similarity. Two placements of the result:
+
+* sequential (default): output patch i spans output frames [iL, (i+1)L) and consumes content frames
+  [u_i, u_i + L'_i); u_{i+1} = u_i + L'_i, so the content is read at the matched stretch and the output
+  takes the style's pace;
+* fixed (the report read literally): content patch i sits at content frames [iL, (i+1)L), the stretch
+  only affects which style window is chosen, and the output keeps the content's timeline.
+
+The half-shifted second sequence spans from the centre of one elastic patch to the centre of the next.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from elastyle.types import BoolArray, Float32Array, FloatArray, IntArray
+
+
+@dataclass(frozen=True)
+class Patch:
+    """One matched patch: content frames [content_start, content_start + content_frames) are replaced by
+    the style window starting at library frame `style_start` (L frames). similarity: cosine, [-1, 1]."""
+
+    content_start: float
+    content_frames: float
+    style_start: int
+    similarity: float
+
+
+def sample_frames(latents: FloatArray, start: float, length: float, count: int) -> FloatArray:
+    """`count` frames (count, Z) evenly covering latents[start : start + length], linear, edge-held."""
+    positions = start + (np.arange(count) + 0.5) * (length / count) - 0.5
+    positions = np.clip(positions, 0, latents.shape[0] - 1)
+    lower = np.floor(positions).astype(np.int64)
+    upper = np.minimum(lower + 1, latents.shape[0] - 1)
+    weight = (positions - lower)[:, None]
+    return (1 - weight) * latents[lower] + weight * latents[upper]
+
+
+class StyleWindows:
+    """Every L-frame window of a whitened style library, unit-normalised for cosine similarity.
+
+    valid: (N,) False for windows that would cross from one library clip into the next.
+    """
+
+    def __init__(self, white_library: FloatArray, clip_starts: IntArray, patch_frames: int) -> None:
+        total, width = white_library.shape
+        self.patch_frames = patch_frames
+        num_windows = total - patch_frames + 1
+        windows = np.lib.stride_tricks.sliding_window_view(white_library.astype(np.float32), patch_frames, axis=0)
+        flat = windows.transpose(0, 2, 1).reshape(num_windows, patch_frames * width)  # (N, L*Z)
+        norms = np.linalg.norm(flat, axis=1, keepdims=True)
+        self.unit: Float32Array = flat / np.maximum(norms, 1e-8)
+        ends = np.append(clip_starts[1:], total)
+        valid = np.zeros(num_windows, dtype=bool)
+        for start, end in zip(clip_starts, ends):
+            valid[start : max(start, end - patch_frames + 1)] = True
+        self.valid: BoolArray = valid
+
+    def best(self, queries: FloatArray) -> tuple[IntArray, FloatArray]:
+        """For queries (Q, L, Z): the best window index (Q,) and its cosine similarity (Q,)."""
+        flat = queries.reshape(queries.shape[0], -1).astype(np.float32)
+        flat /= np.maximum(np.linalg.norm(flat, axis=1, keepdims=True), 1e-8)
+        similarity = flat @ self.unit.T  # (Q, N)
+        similarity[:, ~self.valid] = -np.inf
+        index = np.argmax(similarity, axis=1)
+        return index, similarity[np.arange(len(index)), index].astype(np.float64)
+
+
+def search_sequential(
+    white_content: FloatArray, windows: StyleWindows, source_lengths: IntArray
+) -> tuple[list[Patch], list[Patch]]:
+    """Greedy sequential elastic search: (elastic patches, half-shifted patches)."""
+    patch_frames = windows.patch_frames
+    num_frames = white_content.shape[0]
+    patches: list[Patch] = []
+    cursor = 0.0
+    while cursor < num_frames - 1 or not patches:
+        queries = np.stack([sample_frames(white_content, cursor, float(n), patch_frames) for n in source_lengths])
+        index, similarity = windows.best(queries)
+        choice = int(np.argmax(similarity))
+        patches.append(Patch(cursor, float(source_lengths[choice]), int(index[choice]), float(similarity[choice])))
+        cursor += float(source_lengths[choice])
+    return patches, _half_shifted(white_content, windows, patches)
+
+
+def search_fixed(
+    white_content: FloatArray, windows: StyleWindows, source_lengths: IntArray
+) -> tuple[list[Patch], list[Patch]]:
+    """The literal placement: patches on the content's own grid, stretch used only for matching."""
+    patch_frames = windows.patch_frames
+    num_patches = max(1, int(np.ceil(white_content.shape[0] / patch_frames)))
+    patches = []
+    for i in range(num_patches):
+        centre = (i + 0.5) * patch_frames
+        queries = np.stack(
+            [sample_frames(white_content, centre - n / 2, float(n), patch_frames) for n in source_lengths]
+        )
+        index, similarity = windows.best(queries)
+        choice = int(np.argmax(similarity))
+        # placed at the content's grid: consumes exactly L content frames whatever the stretch
+        patches.append(Patch(i * patch_frames, float(patch_frames), int(index[choice]), float(similarity[choice])))
+    return patches, _half_shifted(white_content, windows, patches)
+
+
+def _half_shifted(white_content: FloatArray, windows: StyleWindows, patches: list[Patch]) -> list[Patch]:
+    """Patches from the centre of each patch to the centre of the next (fixed length), searched without stretch."""
+    spans = [
+        (a.content_start + a.content_frames / 2, (a.content_frames + b.content_frames) / 2)
+        for a, b in zip(patches[:-1], patches[1:])
+    ]
+    if not spans:
+        return []
+    queries = np.stack([sample_frames(white_content, start, length, windows.patch_frames) for start, length in spans])
+    index, similarity = windows.best(queries)
+    return [Patch(s, n, int(i), float(v)) for (s, n), i, v in zip(spans, index, similarity)]

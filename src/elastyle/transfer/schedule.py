@@ -1,0 +1,46 @@
+"""Values that change over time: a constant, or keyframes 'SECONDS:VALUE,...' interpolated linearly."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from elastyle.errors import ElastyleError
+from elastyle.types import FloatArray
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """Keyframes (times_s (K,), values (K,)); held constant before the first and after the last."""
+
+    times_s: tuple[float, ...]
+    values: tuple[float, ...]
+
+    @staticmethod
+    def constant(value: float) -> Schedule:
+        return Schedule((0.0,), (float(value),))
+
+    @staticmethod
+    def parse(text: str, name: str = "schedule", low: float = 0.0, high: float = 1.0) -> Schedule:
+        """'0.7' or '0:0,2:1' (seconds:value pairs, times increasing); values must lie in [low, high]."""
+        try:
+            if ":" not in text:
+                schedule = Schedule.constant(float(text))
+            else:
+                pairs = [item.split(":") for item in text.split(",") if item.strip()]
+                schedule = Schedule(tuple(float(t) for t, _ in pairs), tuple(float(v) for _, v in pairs))
+        except ValueError:
+            raise ElastyleError(f"--{name}: cannot read {text!r}; give a number or 'SECONDS:VALUE,...'") from None
+        if any(b <= a for a, b in zip(schedule.times_s, schedule.times_s[1:])):
+            raise ElastyleError(f"--{name}: keyframe times must increase, got {text!r}")
+        if not all(low <= v <= high for v in schedule.values):
+            raise ElastyleError(f"--{name}: values must lie between {low:g} and {high:g}, got {text!r}")
+        return schedule
+
+    def at(self, times_s: FloatArray) -> FloatArray:
+        return np.interp(times_s, self.times_s, self.values)
+
+    @property
+    def is_zero(self) -> bool:
+        return all(v == 0 for v in self.values)
