@@ -70,7 +70,12 @@ def test_existing_output_is_not_overwritten_without_force(three_channel_bvh: Pat
         (lambda t: t.replace("0 20 0 0 0 0 0", "0 20 0 0 0 0 0 7", 1), "row has 22 values"),
         (lambda t: t.replace("1 20 0 90", "1 20 0 x90"), "not a number"),
         (lambda t: t.replace("1 20 0 90", "1 20 0 nan"), "NaN or infinite"),
-        (lambda t: t.replace("Xrotation Yrotation Zrotation\n    End", "Wrotation Yrotation Zrotation\n    End"), "unknown channel"),
+        (
+            lambda t: t.replace(
+                "Xrotation Yrotation Zrotation\n    End", "Wrotation Yrotation Zrotation\n    End"
+            ),
+            "unknown channel",
+        ),
         (lambda t: t.replace("JOINT RightLeg", "JOINT LeftLeg"), "duplicate joint name"),
         (lambda t: t.replace("Frames: 3", "Frames: 0"), "no frames"),
         (lambda t: "", "empty file"),

@@ -30,7 +30,11 @@ def test_continuous_log_never_jumps_across_pi() -> None:
 
 
 def test_features_round_trip_real_clips(dataset_clips) -> None:  # type: ignore[no-untyped-def]
-    clips = [c for c in dataset_clips if c.stem.endswith(("walk_normal_001", "run_active_003", "wave-left-hand_elderly_002"))]
+    clips = [
+        c
+        for c in dataset_clips
+        if c.stem.endswith(("walk_normal_001", "run_active_003", "wave-left-hand_elderly_002"))
+    ]
     motions = [c.read()[0] for c in clips]
     spec = FeatureSpec.fit(motions)
     for motion in motions:
@@ -73,7 +77,9 @@ def test_mirror_without_pairs_is_a_clear_error(three_channel_bvh: Path, tmp_path
         mirror(motion)
 
 
-@pytest.mark.parametrize("name_pairs", [("Foot_L", "Foot_R"), ("l_hip", "r_hip"), ("arm.L", "arm.R"), ("LeftArm", "RightArm")])
+@pytest.mark.parametrize(
+    "name_pairs", [("Foot_L", "Foot_R"), ("l_hip", "r_hip"), ("arm.L", "arm.R"), ("LeftArm", "RightArm")]
+)
 def test_side_markers_are_recognised(name_pairs: tuple[str, str]) -> None:
     from elastyle.skeleton import Skeleton
 

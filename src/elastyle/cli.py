@@ -11,11 +11,8 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from elastyle.errors import ElastyleError, OutputError
+from elastyle.errors import ElastyleError, OutputError, UsageError
 
-
-class UsageError(ElastyleError):
-    """A wrong combination of options: exit code 2."""
 
 log = logging.getLogger("elastyle")
 
@@ -29,10 +26,14 @@ def _command_info(args: argparse.Namespace) -> int:
         channel_counts = sorted({len(c) for c in layout.channels})
         print(f"{clip.name}")
         print(f"  joints:   {skeleton.num_joints} ({', '.join(skeleton.names)})")
-        print(f"  channels: {sum(len(c) for c in layout.channels)} ({'/'.join(map(str, channel_counts))} per joint)")
+        print(
+            f"  channels: {sum(len(c) for c in layout.channels)} ({'/'.join(map(str, channel_counts))} per joint)"
+        )
         print(f"  frames:   {motion.num_frames} at {motion.fps:.6g} fps ({motion.duration_s:.3f} s)")
         positions = motion.positions()
-        print(f"  height:   {float(positions[0, :, 1].max() - positions[0, :, 1].min()):.2f} file units (first frame)")
+        print(
+            f"  height:   {float(positions[0, :, 1].max() - positions[0, :, 1].min()):.2f} file units (first frame)"
+        )
     return 0
 
 
@@ -72,7 +73,10 @@ def _command_train(args: argparse.Namespace) -> int:
     if args.minutes is None and args.steps is None:
         raise UsageError("give a training budget: --minutes or --steps")
     model_config = ModelConfig(
-        hidden_channels=args.hidden, latent_channels=args.latent, kernel_frames=args.kernel, tied=not args.untied
+        hidden_channels=args.hidden,
+        latent_channels=args.latent,
+        kernel_frames=args.kernel,
+        tied=not args.untied,
     )
     config = TrainConfig(
         model=model_config,
@@ -85,13 +89,16 @@ def _command_train(args: argparse.Namespace) -> int:
         seed=args.seed,
         mirror_augment=not args.no_mirror,
         fps=args.fps,
+        position_loss=args.position_loss,
     )
     train(args.data, args.output, config, resume=args.resume, force=args.force, progress=not args.no_progress)
     return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="elastyle", description="Zero-shot motion style transfer for BVH clips.")
+    parser = argparse.ArgumentParser(
+        prog="elastyle", description="Zero-shot motion style transfer for BVH clips."
+    )
     parser.add_argument("--verbose", action="store_true", help="show tracebacks and debug logging")
     commands = parser.add_subparsers(dest="command", required=True)
 
@@ -113,7 +120,9 @@ def build_parser() -> argparse.ArgumentParser:
     trainer.add_argument("--minutes", type=float, help="time budget")
     trainer.add_argument("--steps", type=int, help="step budget")
     trainer.add_argument("--seed", type=int, default=0)
-    trainer.add_argument("--resume", help="checkpoint to continue from (MODEL.ckpt is written as training goes)")
+    trainer.add_argument(
+        "--resume", help="checkpoint to continue from (MODEL.ckpt is written as training goes)"
+    )
     trainer.add_argument("--batch-size", type=int, default=16)
     trainer.add_argument("--lr", type=float, default=1e-4, help="Adam learning rate (report: 1e-4)")
     trainer.add_argument("--lr-schedule", choices=("constant", "cosine"), default="constant")
@@ -124,10 +133,20 @@ def build_parser() -> argparse.ArgumentParser:
     trainer.add_argument("--untied", action="store_true", help="decoder with weights of its own")
     trainer.add_argument("--no-mirror", action="store_true", help="no mirrored clips as augmentation")
     trainer.add_argument("--fps", type=float, help="resample clips to this rate (default: the first clip's)")
+    trainer.add_argument(
+        "--position-loss",
+        type=float,
+        default=0.0,
+        help="weight of a forward-kinematics joint position and velocity loss (0 = the report's)",
+    )
     trainer.add_argument("--threads", type=int, help="torch CPU threads")
     trainer.add_argument("--no-progress", action="store_true")
     trainer.add_argument("--force", action="store_true", help="overwrite an existing model file")
     trainer.set_defaults(run=_command_train)
+
+    from elastyle.cli_transfer import add_transfer_command
+
+    add_transfer_command(commands)
     return parser
 
 
@@ -155,13 +174,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     except MemoryError:
         if args.verbose:
             raise
-        print("elastyle: error: out of memory (try a shorter clip or a smaller style library)", file=sys.stderr)
+        print(
+            "elastyle: error: out of memory (try a shorter clip or a smaller style library)", file=sys.stderr
+        )
         return 1
     except Exception as error:  # a bug, not bad input: still one line unless --verbose
         if args.verbose:
             raise
-        print(f"elastyle: internal error: {type(error).__name__}: {error} (rerun with --verbose and report it)",
-              file=sys.stderr)
+        print(
+            f"elastyle: internal error: {type(error).__name__}: {error} (rerun with --verbose and report it)",
+            file=sys.stderr,
+        )
         return 1
 
 

@@ -39,3 +39,7 @@ class DatasetError(ElastyleError):
 
 class OutputError(ElastyleError):
     """An output path that cannot or must not be written."""
+
+
+class UsageError(ElastyleError):
+    """A wrong combination of command-line options (exit code 2)."""

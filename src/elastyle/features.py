@@ -62,7 +62,9 @@ class FeatureSpec:
         skeleton = motions[0].skeleton
         forward_local = pelvis_forward_local(skeleton)
         identity = FeatureSpec(skeleton, np.zeros((skeleton.num_joints, 3)), forward_local)
-        quats = np.concatenate([to_quat(identity._heading_relative_rotations(m)[0]) for m in motions])  # (T, J, 4)
+        quats = np.concatenate(
+            [to_quat(identity._heading_relative_rotations(m)[0]) for m in motions]
+        )  # (T, J, 4)
         quats = quats * np.where(quats[..., 3:] < 0, -1.0, 1.0)
         mean = quats.mean(axis=0)  # (J, 4) dominant direction
         quats = quats * np.where(np.sum(quats * mean, axis=-1, keepdims=True) < 0, -1.0, 1.0)
@@ -73,7 +75,9 @@ class FeatureSpec:
         """Local rotations (T, J, 3) with the pelvis's made heading-relative; heading yaw (T,); pelvis positions (T, 3)."""
         world_rotations, world_positions = motion.world()
         pelvis = self.skeleton.pelvis
-        yaw = smooth(heading_yaw(world_rotations[:, pelvis], self.forward_local), PATH_SMOOTHING_S * motion.fps)
+        yaw = smooth(
+            heading_yaw(world_rotations[:, pelvis], self.forward_local), PATH_SMOOTHING_S * motion.fps
+        )
         rotations = motion.rotations.copy()
         tilt = np.swapaxes(yaw_matrices(yaw), -1, -2) @ world_rotations[:, pelvis]  # (T, 3, 3)
         rotations[:, pelvis] = from_matrix(tilt)
@@ -93,9 +97,15 @@ class FeatureSpec:
         features = np.concatenate(
             [from_quat(quats).reshape(motion.num_frames, -1), sway, pelvis_positions[:, 1:2]], axis=1
         )
-        above = np.array([j for j in range(self.skeleton.num_joints) if j not in set(joints.tolist())], dtype=np.int64)
+        above = np.array(
+            [j for j in range(self.skeleton.num_joints) if j not in set(joints.tolist())], dtype=np.int64
+        )
         root = RootPath(
-            path, yaw, motion.rotations[:, above], motion.translations[:, above], motion.translations[:, joints]
+            path,
+            yaw,
+            motion.rotations[:, above],
+            motion.translations[:, above],
+            motion.translations[:, joints],
         )
         return features, root
 
@@ -110,7 +120,9 @@ class FeatureSpec:
         relative = features[:, : 3 * num_pose].reshape(num_frames, num_pose, 3)
         rotations = np.zeros((num_frames, self.skeleton.num_joints, 3))
         translations = np.zeros_like(rotations)
-        above = np.array([j for j in range(self.skeleton.num_joints) if j not in set(joints.tolist())], dtype=np.int64)
+        above = np.array(
+            [j for j in range(self.skeleton.num_joints) if j not in set(joints.tolist())], dtype=np.int64
+        )
         rotations[:, above] = root.above_rotations
         translations[:, above] = root.above_translations
         rotations[:, joints] = multiply(self.reference_rotations[joints], relative)

@@ -68,7 +68,9 @@ def local_reflections(motion: Motion, partner: IntArray) -> FloatArray:
         offset_error = np.abs(np.einsum("aij,kj->aki", candidates, ours) - theirs).sum(axis=(1, 2)) / scale
         pose_error = np.linalg.norm(
             mean_pose[joint] - _REFLECT_X @ mean_pose[other] @ candidates, axis=(1, 2)
-        ) + np.linalg.norm(mean_pose[other] - _REFLECT_X @ mean_pose[joint] @ candidates.transpose(0, 2, 1), axis=(1, 2))
+        ) + np.linalg.norm(
+            mean_pose[other] - _REFLECT_X @ mean_pose[joint] @ candidates.transpose(0, 2, 1), axis=(1, 2)
+        )
         # Offsets decide first (a misfit costs more than any pose difference); then the parent's reflection
         # is preferred (leaf joints have no offsets to tell), and the clip's mean pose breaks what is left.
         parent = skeleton.parents[joint]

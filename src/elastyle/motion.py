@@ -73,5 +73,5 @@ class Motion:
         if abs(fps - self.fps) < 1e-9:
             return self
         num_frames = max(1, int(round((self.num_frames - 1) * fps / self.fps)) + 1)
-        frame_times = np.arange(num_frames) * (self.fps / fps)  # (N,) source frame indices
+        frame_times = np.arange(num_frames, dtype=np.float64) * (self.fps / fps)  # (N,) source frame indices
         return self.sample(frame_times, fps)

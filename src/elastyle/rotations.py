@@ -1,34 +1,24 @@
-"""Rotation helpers over exponential maps (rotation vectors, radians).
+"""Rotation helpers over exponential maps (rotation vectors, radians), vectorised in numpy.
 
 Exp maps `(..., 3)` are the one rotation format outside `io/bvh`. Quaternions appear only inside this
-module and are scalar-last `(x, y, z, w)`, like scipy, which does the heavy lifting.
+module and are scalar-last `(x, y, z, w)`, like scipy, which the tests use as the reference. Plain numpy
+on whole arrays is several times faster here than building scipy `Rotation` objects for every call.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from elastyle.types import FloatArray
 
 
-def _as_rotation(rotvecs: FloatArray) -> Rotation:
-    return Rotation.from_rotvec(np.array(rotvecs, dtype=np.float64).reshape(-1, 3))
-
-
-def to_matrix(rotvecs: FloatArray) -> FloatArray:
-    """Exp maps (..., 3) -> rotation matrices (..., 3, 3) acting on column vectors."""
-    return _as_rotation(rotvecs).as_matrix().reshape(*rotvecs.shape[:-1], 3, 3)
-
-
-def from_matrix(matrices: FloatArray) -> FloatArray:
-    """Rotation matrices (..., 3, 3) -> exp maps (..., 3) with angle in [0, pi]."""
-    return Rotation.from_matrix(matrices.reshape(-1, 3, 3)).as_rotvec().reshape(*matrices.shape[:-2], 3)
-
-
 def to_quat(rotvecs: FloatArray) -> FloatArray:
     """Exp maps (..., 3) -> unit quaternions (..., 4), scalar last."""
-    return _as_rotation(rotvecs).as_quat().reshape(*rotvecs.shape[:-1], 4)
+    angle = np.linalg.norm(rotvecs, axis=-1, keepdims=True)  # (..., 1)
+    small = angle < 1e-6
+    # sin(angle / 2) / angle, with its Taylor series near zero so the identity stays finite
+    scale = np.where(small, 0.5 - angle**2 / 48, np.sin(angle / 2) / np.where(small, 1.0, angle))
+    return np.concatenate([rotvecs * scale, np.cos(angle / 2)], axis=-1)
 
 
 def from_quat(quats: FloatArray) -> FloatArray:
@@ -43,12 +33,77 @@ def from_quat(quats: FloatArray) -> FloatArray:
     return vector * scale
 
 
+def canonical_log(quats: FloatArray) -> FloatArray:
+    """Quaternions (..., 4) -> exp maps (..., 3) with angle in [0, pi] (the shorter way round)."""
+    return from_quat(np.where(quats[..., 3:4] < 0, -quats, quats))
+
+
+def quat_multiply(left: FloatArray, right: FloatArray) -> FloatArray:
+    """Hamilton product of scalar-last quaternions (..., 4): the rotation `left @ right`."""
+    x1, y1, z1, w1 = np.moveaxis(left, -1, 0)
+    x2, y2, z2, w2 = np.moveaxis(right, -1, 0)
+    return np.stack(
+        [
+            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+        ],
+        axis=-1,
+    )
+
+
+def quat_to_matrix(quats: FloatArray) -> FloatArray:
+    """Unit quaternions (..., 4) -> rotation matrices (..., 3, 3)."""
+    x, y, z, w = np.moveaxis(quats, -1, 0)
+    return np.stack(
+        [
+            1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
+            2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
+            2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y),
+        ],
+        axis=-1,
+    ).reshape(*quats.shape[:-1], 3, 3)  # fmt: skip
+
+
+def matrix_to_quat(matrices: FloatArray) -> FloatArray:
+    """Rotation matrices (..., 3, 3) -> unit quaternions (..., 4) with w >= 0 (Shepperd's method)."""
+    m = matrices
+    trace = m[..., 0, 0] + m[..., 1, 1] + m[..., 2, 2]
+    # four candidate quaternions, each accurate when its own component is the largest
+    candidates = np.stack(
+        [
+            np.stack([1 + 2 * m[..., 0, 0] - trace, m[..., 1, 0] + m[..., 0, 1], m[..., 0, 2] + m[..., 2, 0],
+                      m[..., 2, 1] - m[..., 1, 2]], axis=-1),
+            np.stack([m[..., 1, 0] + m[..., 0, 1], 1 + 2 * m[..., 1, 1] - trace, m[..., 2, 1] + m[..., 1, 2],
+                      m[..., 0, 2] - m[..., 2, 0]], axis=-1),
+            np.stack([m[..., 0, 2] + m[..., 2, 0], m[..., 2, 1] + m[..., 1, 2], 1 + 2 * m[..., 2, 2] - trace,
+                      m[..., 1, 0] - m[..., 0, 1]], axis=-1),
+            np.stack([m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1],
+                      1 + trace], axis=-1),
+        ],
+        axis=-2,
+    )  # (..., 4 candidates, 4)  # fmt: skip
+    diagonal = np.stack([m[..., 0, 0], m[..., 1, 1], m[..., 2, 2], trace], axis=-1)
+    best = np.argmax(diagonal, axis=-1)[..., None, None]
+    quats = np.take_along_axis(candidates, best, axis=-2)[..., 0, :]
+    quats /= np.linalg.norm(quats, axis=-1, keepdims=True)
+    return np.where(quats[..., 3:4] < 0, -quats, quats)
+
+
+def to_matrix(rotvecs: FloatArray) -> FloatArray:
+    """Exp maps (..., 3) -> rotation matrices (..., 3, 3) acting on column vectors."""
+    return quat_to_matrix(to_quat(rotvecs))
+
+
+def from_matrix(matrices: FloatArray) -> FloatArray:
+    """Rotation matrices (..., 3, 3) -> exp maps (..., 3) with angle in [0, pi]."""
+    return from_quat(matrix_to_quat(matrices))
+
+
 def multiply(left: FloatArray, right: FloatArray) -> FloatArray:
-    """Compose exp maps (..., 3): the rotation `left @ right` (right applied first)."""
-    shape = np.broadcast_shapes(left.shape, right.shape)
-    left_b = np.broadcast_to(left, shape)
-    right_b = np.broadcast_to(right, shape)
-    return (_as_rotation(left_b) * _as_rotation(right_b)).as_rotvec().reshape(shape)
+    """Compose exp maps (..., 3), broadcasting: the rotation `left @ right` (right applied first)."""
+    return canonical_log(quat_multiply(to_quat(left), to_quat(right)))
 
 
 def inverse(rotvecs: FloatArray) -> FloatArray:
@@ -82,13 +137,6 @@ def slerp_resample(rotvecs: FloatArray, times: FloatArray) -> FloatArray:
     upper = np.minimum(lower + 1, num_frames - 1)
     weight = (times - lower)[:, None, None]  # (N, 1, 1)
     start = rotvecs[lower]  # (N, J, 3)
-    # relative rotation from start to end, scaled by the weight, applied after start
+    # relative rotation from start to end (the shorter way), scaled by the weight, applied after start
     delta = multiply(inverse(start), rotvecs[upper])
     return multiply(start, delta * weight)
-
-
-def yaw_rotation(yaw: FloatArray) -> FloatArray:
-    """Exp maps (..., 3) of rotations by `yaw` radians (...,) about +Y."""
-    out = np.zeros((*np.shape(yaw), 3))
-    out[..., 1] = yaw
-    return out

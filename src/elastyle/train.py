@@ -1,3 +1,4 @@
+# mypy: disable-error-code="index,arg-type,operator"
 """Training the autoencoder on any set of BVH clips: the only module that uses torch.
 
 The report's recipe (METHOD.md section 3): Adam, batch 16, learning rate 1e-4, windows of 4 s sampled
@@ -46,6 +47,8 @@ class TrainConfig:
     holdout_every: int = 5  # every 5th take is held out (dataset takes with take % 5 == 0)
     checkpoint_every: int = 500
     fps: float | None = None  # default: the first clip's
+    position_loss: float = 0.0  # weight of a forward-kinematics joint position (and velocity) loss
+    position_scale: float = 10.0  # file units that count as 1 in that loss (10 cm here)
 
 
 def is_held_out(clip: ClipRef, every: int) -> bool:
@@ -88,7 +91,10 @@ def _torch_autoencoder(config: ModelConfig, num_channels: int):  # type: ignore[
             if not config.tied:
                 self.deconv2 = nn.ConvTranspose1d(config.latent_channels, config.hidden_channels, 1)
                 self.deconv1 = nn.ConvTranspose1d(
-                    config.hidden_channels, num_channels, config.kernel_frames, padding=config.kernel_frames // 2
+                    config.hidden_channels,
+                    num_channels,
+                    config.kernel_frames,
+                    padding=config.kernel_frames // 2,
                 )
 
         def encode(self, x: torch.Tensor) -> torch.Tensor:  # x (B, C, T)
@@ -99,8 +105,12 @@ def _torch_autoencoder(config: ModelConfig, num_channels: int):  # type: ignore[
         def decode(self, z: torch.Tensor) -> torch.Tensor:
             pad = config.kernel_frames // 2
             if config.tied:
-                hidden = functional.relu(functional.conv_transpose1d(z - self.conv2.bias[None, :, None], self.conv2.weight))
-                return functional.conv_transpose1d(hidden - self.conv1.bias[None, :, None], self.conv1.weight, padding=pad)
+                hidden = functional.relu(
+                    functional.conv_transpose1d(z - self.conv2.bias[None, :, None], self.conv2.weight)
+                )
+                return functional.conv_transpose1d(
+                    hidden - self.conv1.bias[None, :, None], self.conv1.weight, padding=pad
+                )
             return self.deconv1(functional.relu(self.deconv2(z)))
 
         def forward(self, x: torch.Tensor) -> torch.Tensor:
@@ -119,10 +129,82 @@ def _torch_autoencoder(config: ModelConfig, num_channels: int):  # type: ignore[
                     debias1=array(self.deconv1.bias),
                 )
             return AutoencoderWeights(
-                array(self.conv1.weight), array(self.conv1.bias), array(self.conv2.weight), array(self.conv2.bias), **extra
+                array(self.conv1.weight),
+                array(self.conv1.bias),
+                array(self.conv2.weight),
+                array(self.conv2.bias),
+                **extra,
             )
 
     return TorchAutoencoder()
+
+
+def _torch_pose_positions(features, spec: FeatureSpec, mean: FloatArray, std: FloatArray):  # type: ignore[no-untyped-def]
+    """Joint positions (B, T, J_pose, 3) relative to the path, in the heading frame, from normalised features (B, C, T)."""
+    import torch
+
+    x = features.permute(0, 2, 1) * torch.from_numpy(std.astype(np.float32)) + torch.from_numpy(
+        mean.astype(np.float32)
+    )
+    joints = spec.pose_joints.tolist()
+    count = len(joints)
+    rotvec = x[..., : 3 * count].reshape(*x.shape[:2], count, 3)
+    angle = torch.linalg.norm(rotvec, dim=-1, keepdim=True)
+    half_sinc = 0.5 * torch.sinc(angle / (2 * math.pi))  # sin(a / 2) / a, safe at 0
+    quat = torch.cat([torch.cos(angle / 2), rotvec * half_sinc], dim=-1)  # (B, T, J, 4) w first
+    from elastyle.rotations import to_quat
+
+    ref = torch.from_numpy(np.roll(to_quat(spec.reference_rotations[joints]), 1, axis=-1).astype(np.float32))
+    quat = _quat_multiply(ref, quat)
+    matrices = _quat_matrix(quat)  # (B, T, J, 3, 3)
+    offsets = torch.from_numpy(spec.skeleton.offsets[joints].astype(np.float32))
+    root = torch.stack(
+        [x[..., 3 * count], x[..., 3 * count + 2], x[..., 3 * count + 1]], dim=-1
+    )  # sway x, height, sway z
+    index = {joint: k for k, joint in enumerate(joints)}
+    world = [matrices[:, :, 0]]
+    positions = [root]
+    for k in range(1, count):
+        parent = index[int(spec.skeleton.parents[joints[k]])]
+        world.append(world[parent] @ matrices[:, :, k])
+        positions.append(positions[parent] + (world[parent] @ offsets[k, :, None])[..., 0])
+    return torch.stack(positions, dim=2)
+
+
+def _quat_multiply(a, b):  # type: ignore[no-untyped-def]
+    import torch
+
+    aw, ax, ay, az = a.unbind(-1)
+    bw, bx, by, bz = b.unbind(-1)
+    return torch.stack(
+        [
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+        ],
+        dim=-1,
+    )
+
+
+def _quat_matrix(q):  # type: ignore[no-untyped-def]
+    import torch
+
+    w, x, y, z = q.unbind(-1)
+    return torch.stack(
+        [
+            1 - 2 * (y * y + z * z),
+            2 * (x * y - z * w),
+            2 * (x * z + y * w),
+            2 * (x * y + z * w),
+            1 - 2 * (x * x + z * z),
+            2 * (y * z - x * w),
+            2 * (x * z - y * w),
+            2 * (y * z + x * w),
+            1 - 2 * (x * x + y * y),
+        ],
+        dim=-1,
+    ).reshape(*q.shape[:-1], 3, 3)
 
 
 def _windows(features: list[FloatArray], window: int, count: int, rng: np.random.Generator) -> FloatArray:
@@ -197,7 +279,9 @@ def train(
     budget_s = config.minutes * 60 if config.minutes is not None else math.inf
     if config.steps is None and config.minutes is None:
         raise ElastyleError("give a training budget: --minutes or --steps")
-    val_batch = torch.from_numpy(_windows(val_norm, window, 64, np.random.default_rng(1))) if val_norm else None
+    val_batch = (
+        torch.from_numpy(_windows(val_norm, window, 64, np.random.default_rng(1))) if val_norm else None
+    )
 
     bar = None
     if progress:
@@ -209,12 +293,23 @@ def train(
     train_loss = float("nan")
     while step < budget_steps and elapsed_before + time.perf_counter() - started < budget_s:
         if config.lr_schedule == "cosine":
-            fraction = step / budget_steps if config.steps else (elapsed_before + time.perf_counter() - started) / budget_s
+            fraction = (
+                step / budget_steps
+                if config.steps
+                else (elapsed_before + time.perf_counter() - started) / budget_s
+            )
             rate = config.learning_rate * (0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * min(fraction, 1.0))))
             for group in optimizer.param_groups:
                 group["lr"] = rate
         batch = torch.from_numpy(_windows(train_norm, window, config.batch_size, rng))
-        loss = torch.mean((network(batch) - batch) ** 2)
+        reconstruction = network(batch)
+        loss = torch.mean((reconstruction - batch) ** 2)
+        if config.position_loss > 0:
+            predicted = _torch_pose_positions(reconstruction, spec, mean, std) / config.position_scale
+            target = _torch_pose_positions(batch, spec, mean, std) / config.position_scale
+            position_error = torch.mean((predicted - target) ** 2)
+            velocity_error = torch.mean((torch.diff(predicted, dim=1) - torch.diff(target, dim=1)) ** 2) * fps
+            loss = loss + config.position_loss * (position_error + velocity_error)
         optimizer.zero_grad()
         loss.backward()
         optimizer.step()
@@ -227,7 +322,9 @@ def train(
             bar.update(1)
             bar.set_postfix(loss=f"{train_loss:.4f}", val=f"{val_loss:.4f}")
         if step % config.checkpoint_every == 0:
-            _save_checkpoint(checkpoint_path, network, optimizer, step, elapsed_before + time.perf_counter() - started)
+            _save_checkpoint(
+                checkpoint_path, network, optimizer, step, elapsed_before + time.perf_counter() - started
+            )
     if bar is not None:
         bar.close()
     elapsed = elapsed_before + time.perf_counter() - started
@@ -246,7 +343,13 @@ def train(
         "split": f"held out: takes numbered % {config.holdout_every} == 0 (other names: crc32 % {config.holdout_every} == 0)",
     }
     model = StyleModel(
-        config.model, spec, mean, std, Autoencoder(config.model, network.numpy_weights()), float(fps), metadata
+        config.model,
+        spec,
+        mean,
+        std,
+        Autoencoder(config.model, network.numpy_weights()),
+        float(fps),
+        metadata,
     )
     save_model(output, model, force=force)
     log.info("wrote %s after %d steps (%.1f min), held-out loss %.4f", output, step, elapsed / 60, val_loss)
@@ -257,5 +360,13 @@ def _save_checkpoint(path: Path, network, optimizer, step: int, elapsed_s: float
     import torch
 
     temporary = path.with_suffix(".tmp")
-    torch.save({"network": network.state_dict(), "optimizer": optimizer.state_dict(), "step": step, "elapsed_s": elapsed_s}, temporary)
+    torch.save(
+        {
+            "network": network.state_dict(),
+            "optimizer": optimizer.state_dict(),
+            "step": step,
+            "elapsed_s": elapsed_s,
+        },
+        temporary,
+    )
     temporary.replace(path)

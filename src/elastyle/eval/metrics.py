@@ -59,7 +59,11 @@ def find_limbs(skeleton: Skeleton) -> Limbs:
             if skeleton.parents[j] in below_spine:
                 below_spine.add(j)
         # arm roots: sided joints below the spine whose parent is a centre joint
-        roots = [j for j in sorted(below_spine) if partner[j] != j and partner[skeleton.parents[j]] == skeleton.parents[j]]
+        roots = [
+            j
+            for j in sorted(below_spine)
+            if partner[j] != j and partner[skeleton.parents[j]] == skeleton.parents[j]
+        ]
         hands = [_deepest_descendant(skeleton, r) for r in roots]
     return Limbs(np.array(toes), np.array(ankles), np.array(legs), np.array(hands, dtype=np.int64))
 
@@ -99,7 +103,9 @@ def jerk(positions: FloatArray, fps: float) -> float:
     return float(np.linalg.norm(third, axis=-1).mean())
 
 
-def _dominant_frequency_hz(signal: FloatArray, fps: float, low_hz: float = 0.3, high_hz: float = 3.0) -> float:
+def _dominant_frequency_hz(
+    signal: FloatArray, fps: float, low_hz: float = 0.3, high_hz: float = 3.0
+) -> float:
     signal = signal - signal.mean()
     if signal.shape[0] < 8 or not np.any(signal):
         return float("nan")

@@ -114,7 +114,9 @@ def _parse_hierarchy(reader: _Lines) -> tuple[Skeleton, list[tuple[str, ...]]]:
     def parse_offset(expected_owner: str) -> list[float]:
         tokens, line = reader.next_tokens("OFFSET")
         if tokens[0].upper() != "OFFSET" or len(tokens) != 4:
-            raise BvhError(path, f"expected 'OFFSET x y z' for {expected_owner}, got {' '.join(tokens)[:60]!r}", line)
+            raise BvhError(
+                path, f"expected 'OFFSET x y z' for {expected_owner}, got {' '.join(tokens)[:60]!r}", line
+            )
         return [_parse_float(path, t, line) for t in tokens[1:]]
 
     def expect_brace(line_tokens: tuple[list[str], int]) -> None:
@@ -185,7 +187,9 @@ def _parse_channels(path: str, tokens: list[str], line: int, joint_name: str) ->
         raise BvhError(path, f"repeated channel on joint {joint_name!r}", line)
     rotation_count = sum(c in _ROTATION_CHANNELS for c in names)
     if rotation_count not in (0, 3):
-        raise BvhError(path, f"joint {joint_name!r} has {rotation_count} rotation channels (need 0 or 3)", line)
+        raise BvhError(
+            path, f"joint {joint_name!r} has {rotation_count} rotation channels (need 0 or 3)", line
+        )
     return names
 
 
@@ -238,13 +242,19 @@ def _parse_motion(reader: _Lines, num_channels: int) -> tuple[FloatArray, float]
     return values, frame_time_s
 
 
-def _raise_row_problem(path: str, rows: list[str], first_line: int, num_frames: int, num_channels: int) -> None:
+def _raise_row_problem(
+    path: str, rows: list[str], first_line: int, num_frames: int, num_channels: int
+) -> None:
     for row_index, row in enumerate(rows):
         count = len(row.split())
         if count != num_channels:
-            problem = "empty row" if count == 0 else f"row has {count} values, the hierarchy needs {num_channels}"
+            problem = (
+                "empty row" if count == 0 else f"row has {count} values, the hierarchy needs {num_channels}"
+            )
             raise BvhError(path, problem, first_line + row_index)
-    raise BvhError(path, f"'Frames: {num_frames}' but {len(rows)} rows of frame data (truncated?)", first_line)
+    raise BvhError(
+        path, f"'Frames: {num_frames}' but {len(rows)} rows of frame data (truncated?)", first_line
+    )
 
 
 def _raise_value_problem(path: str, rows: list[str], first_line: int) -> None:
@@ -279,7 +289,9 @@ def _motion_from_channels(
     for order, (joints, columns) in by_order.items():
         angles_deg = values[:, np.array(columns)]  # (T, J_order, 3)
         rotations[:, joints] = (
-            Rotation.from_euler(order, angles_deg.reshape(-1, 3), degrees=True).as_rotvec().reshape(angles_deg.shape)
+            Rotation.from_euler(order, angles_deg.reshape(-1, 3), degrees=True)
+            .as_rotvec()
+            .reshape(angles_deg.shape)
         )
     return Motion(skeleton, rotations, translations, fps)
 
@@ -293,12 +305,14 @@ def bvh_text(motion: Motion, layout: BvhLayout | None = None) -> str:
     out = io.StringIO()
     out.write("HIERARCHY\n")
     _write_joint(out, skeleton, layout, 0, 0)
-    out.write(f"MOTION\nFrames: {motion.num_frames}\nFrame Time: {1.0 / motion.fps:.7g}\n")
+    out.write(f"MOTION\nFrames: {motion.num_frames}\nFrame Time: {1.0 / motion.fps:.7f}\n")
     np.savetxt(out, _channel_values(motion, layout), fmt="%.6f", delimiter=" ")
     return out.getvalue()
 
 
-def write_bvh(path: str | os.PathLike[str], motion: Motion, layout: BvhLayout | None = None, force: bool = False) -> None:
+def write_bvh(
+    path: str | os.PathLike[str], motion: Motion, layout: BvhLayout | None = None, force: bool = False
+) -> None:
     """Write a clip as BVH, atomically; refuses to replace an existing file unless `force`."""
     write_text_atomic(path, bvh_text(motion, layout), force=force)
 

@@ -9,7 +9,9 @@ from pathlib import Path
 from elastyle.errors import OutputError
 
 
-def check_output_path(path: str | os.PathLike[str], force: bool = False, inputs: tuple[str, ...] = ()) -> Path:
+def check_output_path(
+    path: str | os.PathLike[str], force: bool = False, inputs: tuple[str, ...] = ()
+) -> Path:
     """Validate an output path before any work is done; returns it as a `Path`."""
     target = Path(path)
     if not target.parent.exists():
@@ -32,7 +34,10 @@ def write_bytes_atomic(path: str | os.PathLike[str], data: bytes, force: bool = 
     """Write to a temporary file beside `path`, then rename it into place only once complete."""
     target = check_output_path(path, force=force)
     handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    umask = os.umask(0)
+    os.umask(umask)
     try:
+        os.chmod(temporary, 0o666 & ~umask)  # mkstemp makes 0600; give the file the user's usual mode
         with os.fdopen(handle, "wb") as stream:
             stream.write(data)
             stream.flush()

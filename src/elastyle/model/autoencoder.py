@@ -13,7 +13,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from elastyle.model.config import ModelConfig
-from elastyle.types import Float32Array
+from elastyle.types import AnyFloatArray, Float32Array
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,18 +66,23 @@ class Autoencoder:
         self.config = config
         self.weights = weights
 
-    def encode(self, features: Float32Array) -> Float32Array:
+    def encode(self, features: AnyFloatArray) -> Float32Array:
         w = self.weights
         hidden = np.maximum(_conv_same(features.astype(np.float32), w.conv1, w.bias1), 0.0)  # (T, H)
         return np.maximum(_conv_same(hidden, w.conv2, w.bias2), 0.0)  # (T, Z)
 
-    def decode(self, latents: Float32Array) -> Float32Array:
+    def decode(self, latents: AnyFloatArray) -> Float32Array:
         w = self.weights
         latents = latents.astype(np.float32)
         if self.config.tied:
             # the report's inverse: subtract the bias, then the transposed convolution with the same weights
             hidden = np.maximum(_conv_transpose_same(latents - w.bias2, w.conv2), 0.0)  # (T, H)
             return _conv_transpose_same(hidden - w.bias1, w.conv1)  # (T, C)
-        assert w.deconv2 is not None and w.debias2 is not None and w.deconv1 is not None and w.debias1 is not None
+        assert (
+            w.deconv2 is not None
+            and w.debias2 is not None
+            and w.deconv1 is not None
+            and w.debias1 is not None
+        )
         hidden = np.maximum(_conv_transpose_same(latents, w.deconv2) + w.debias2, 0.0)
         return _conv_transpose_same(hidden, w.deconv1) + w.debias1

@@ -115,7 +115,9 @@ def load_model(path: str | os.PathLike[str] | None = None) -> StyleModel:
             data["end_sites"],
         )
         spec = FeatureSpec(skeleton, data["reference_rotations"], data["forward_local"])
-        weights = AutoencoderWeights(**{n: data[f"weight_{n}"] for n in _WEIGHT_NAMES if f"weight_{n}" in data})
+        weights = AutoencoderWeights(
+            **{n: data[f"weight_{n}"] for n in _WEIGHT_NAMES if f"weight_{n}" in data}
+        )
         return StyleModel(
             config,
             spec,

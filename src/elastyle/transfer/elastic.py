@@ -52,7 +52,9 @@ class StyleWindows:
         total, width = white_library.shape
         self.patch_frames = patch_frames
         num_windows = total - patch_frames + 1
-        windows = np.lib.stride_tricks.sliding_window_view(white_library.astype(np.float32), patch_frames, axis=0)
+        windows = np.lib.stride_tricks.sliding_window_view(
+            white_library.astype(np.float32), patch_frames, axis=0
+        )
         flat = windows.transpose(0, 2, 1).reshape(num_windows, patch_frames * width)  # (N, L*Z)
         norms = np.linalg.norm(flat, axis=1, keepdims=True)
         self.unit: Float32Array = flat / np.maximum(norms, 1e-8)
@@ -80,11 +82,15 @@ def search_sequential(
     num_frames = white_content.shape[0]
     patches: list[Patch] = []
     cursor = 0.0
-    while cursor < num_frames - 1 or not patches:
-        queries = np.stack([sample_frames(white_content, cursor, float(n), patch_frames) for n in source_lengths])
+    while cursor < num_frames or not patches:
+        queries = np.stack(
+            [sample_frames(white_content, cursor, float(n), patch_frames) for n in source_lengths]
+        )
         index, similarity = windows.best(queries)
         choice = int(np.argmax(similarity))
-        patches.append(Patch(cursor, float(source_lengths[choice]), int(index[choice]), float(similarity[choice])))
+        patches.append(
+            Patch(cursor, float(source_lengths[choice]), int(index[choice]), float(similarity[choice]))
+        )
         cursor += float(source_lengths[choice])
     return patches, _half_shifted(white_content, windows, patches)
 
@@ -104,7 +110,9 @@ def search_fixed(
         index, similarity = windows.best(queries)
         choice = int(np.argmax(similarity))
         # placed at the content's grid: consumes exactly L content frames whatever the stretch
-        patches.append(Patch(i * patch_frames, float(patch_frames), int(index[choice]), float(similarity[choice])))
+        patches.append(
+            Patch(i * patch_frames, float(patch_frames), int(index[choice]), float(similarity[choice]))
+        )
     return patches, _half_shifted(white_content, windows, patches)
 
 
@@ -116,6 +124,8 @@ def _half_shifted(white_content: FloatArray, windows: StyleWindows, patches: lis
     ]
     if not spans:
         return []
-    queries = np.stack([sample_frames(white_content, start, length, windows.patch_frames) for start, length in spans])
+    queries = np.stack(
+        [sample_frames(white_content, start, length, windows.patch_frames) for start, length in spans]
+    )
     index, similarity = windows.best(queries)
     return [Patch(s, n, int(i), float(v)) for (s, n), i, v in zip(spans, index, similarity)]

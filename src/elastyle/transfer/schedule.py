@@ -31,7 +31,9 @@ class Schedule:
                 pairs = [item.split(":") for item in text.split(",") if item.strip()]
                 schedule = Schedule(tuple(float(t) for t, _ in pairs), tuple(float(v) for _, v in pairs))
         except ValueError:
-            raise ElastyleError(f"--{name}: cannot read {text!r}; give a number or 'SECONDS:VALUE,...'") from None
+            raise ElastyleError(
+                f"--{name}: cannot read {text!r}; give a number or 'SECONDS:VALUE,...'"
+            ) from None
         if any(b <= a for a, b in zip(schedule.times_s, schedule.times_s[1:])):
             raise ElastyleError(f"--{name}: keyframe times must increase, got {text!r}")
         if not all(low <= v <= high for v in schedule.values):

@@ -52,7 +52,9 @@ class TransferConfig:
         if self.method not in METHODS:
             raise ElastyleError(f"unknown method {self.method!r}; choose one of {', '.join(METHODS)}")
         if self.placement not in PLACEMENTS:
-            raise ElastyleError(f"unknown placement {self.placement!r}; choose one of {', '.join(PLACEMENTS)}")
+            raise ElastyleError(
+                f"unknown placement {self.placement!r}; choose one of {', '.join(PLACEMENTS)}"
+            )
         if not 0 <= self.stretch < 1:
             raise ElastyleError(f"stretch must lie in [0, 1), got {self.stretch}")
         if self.patch_s <= 0:
@@ -82,7 +84,9 @@ class StyleLibrary:
 
     def windows(self, patch_frames: int) -> StyleWindows:
         if patch_frames not in self._windows:
-            self._windows[patch_frames] = StyleWindows(self.stats.whiten(self.latents), self.clip_starts, patch_frames)
+            self._windows[patch_frames] = StyleWindows(
+                self.stats.whiten(self.latents), self.clip_starts, patch_frames
+            )
         return self._windows[patch_frames]
 
     def locate(self, library_frame: int) -> tuple[int, int]:
@@ -109,7 +113,10 @@ def encode_latents(model: StyleModel, motion: Motion) -> tuple[FloatArray, RootP
 
 
 def prepare_style(
-    model: StyleModel, motions: Sequence[Motion], names: Sequence[str] | None = None, mirror_style: bool = True
+    model: StyleModel,
+    motions: Sequence[Motion],
+    names: Sequence[str] | None = None,
+    mirror_style: bool = True,
 ) -> StyleLibrary:
     """Encode a style library: every clip, plus its mirror (METHOD.md section 2) when the skeleton allows."""
     names = list(names) if names is not None else [f"style{i}" for i in range(len(motions))]
@@ -138,13 +145,17 @@ class _StyleTrack:
     patch_frames: int
 
 
-def _patch_sample(grid: FloatArray, patches: list[Patch], patch_frames: int) -> tuple[FloatArray, FloatArray, FloatArray]:
+def _patch_sample(
+    grid: FloatArray, patches: list[Patch], patch_frames: int
+) -> tuple[FloatArray, FloatArray, FloatArray]:
     """For each grid time (G,): library position, cross-fade weight and log rate of the covering patch."""
     position = np.zeros_like(grid)
     weight = np.zeros_like(grid)
     log_rate = np.zeros_like(grid)
     for patch in patches:
-        inside = (grid >= patch.content_start - 0.5) & (grid < patch.content_start + patch.content_frames - 0.5)
+        inside = (grid >= patch.content_start - 0.5) & (
+            grid < patch.content_start + patch.content_frames - 0.5
+        )
         phase = (grid[inside] - patch.content_start + 0.5) / patch.content_frames  # (0, 1]
         frame = phase * patch_frames - 0.5
         position[inside] = patch.style_start + np.clip(frame, 0, patch_frames - 1)
@@ -253,13 +264,18 @@ def transfer(
     grid_index = np.interp(content_time, grid, np.arange(len(grid)))
     output_latents = _interpolate_rows(latents, grid_index)
     features = model.denormalise(model.autoencoder.decode(output_latents).astype(np.float64))
-    motion = model.features.decode(features, root.sample(content_time), fps).resample(content.fps)
+    decoded = model.features.decode(features, root.sample(content_time), fps)
+    # the content's own skeleton (its offsets and End Sites), so the output drops into the content's rig
+    motion = Motion(content.skeleton, decoded.rotations, decoded.translations, fps).resample(content.fps)
     explain = _explain(tracks, libraries, content_time, fps, config)
     return TransferResult(motion, explain)
 
 
 def _as_library(
-    model: StyleModel, style: Motion | Sequence[Motion] | StyleLibrary, names: Sequence[str] | None, config: TransferConfig
+    model: StyleModel,
+    style: Motion | Sequence[Motion] | StyleLibrary,
+    names: Sequence[str] | None,
+    config: TransferConfig,
 ) -> StyleLibrary:
     if isinstance(style, StyleLibrary):
         return style
@@ -270,7 +286,11 @@ def _as_library(
 
 
 def _explain(
-    tracks: list[_StyleTrack], libraries: list[StyleLibrary], content_time: FloatArray, fps: float, config: TransferConfig
+    tracks: list[_StyleTrack],
+    libraries: list[StyleLibrary],
+    content_time: FloatArray,
+    fps: float,
+    config: TransferConfig,
 ) -> dict[str, Any]:
     """Per output patch: its style clip, start frame, stretch factor, similarity and times."""
     styles = []

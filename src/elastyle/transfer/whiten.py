@@ -48,7 +48,9 @@ def whiten_colour(content: FloatArray, content_stats: LatentStats, style_stats: 
     return style_stats.colour(content_stats.whiten(content))
 
 
-def adain(content: FloatArray, content_latents: Sequence[FloatArray], style_latents: Sequence[FloatArray]) -> FloatArray:
+def adain(
+    content: FloatArray, content_latents: Sequence[FloatArray], style_latents: Sequence[FloatArray]
+) -> FloatArray:
     """Give content latents (T, Z) the style's per-channel mean and standard deviation."""
     ours = np.concatenate(content_latents)
     theirs = np.concatenate(style_latents)

@@ -1,0 +1,169 @@
+"""`elastyle transfer`: one content clip to one output file, or many content clips into a folder."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+from pathlib import Path
+from typing import Any
+
+from elastyle.errors import ElastyleError, OutputError, UsageError
+
+log = logging.getLogger("elastyle")
+
+
+def add_transfer_command(commands: Any) -> None:
+    parser = commands.add_parser(
+        "transfer",
+        help="perform content clips in the manner and timing of style clips",
+        description="Perform CONTENT in the manner and timing of the --style clips (several form one library).",
+    )
+    parser.add_argument("content", nargs="+", help="content BVH clip(s); several need -o FOLDER/")
+    parser.add_argument(
+        "--style", action="append", required=True, help="style clip, folder, glob or zip path (repeatable)"
+    )
+    parser.add_argument(
+        "-o", "--output", required=True, help="output BVH, or a folder for several content clips"
+    )
+    parser.add_argument("--model", help="model file (default: the shipped pretrained model)")
+    parser.add_argument("--method", choices=("elastic", "rigid", "wct", "adain"), default="elastic")
+    parser.add_argument(
+        "--placement",
+        choices=("sequential", "fixed"),
+        default="sequential",
+        help="sequential: output takes the style's timing (default); fixed: the report read literally",
+    )
+    parser.add_argument("--patch-s", type=float, default=1.0, help="patch length, seconds (default 1.0)")
+    parser.add_argument(
+        "--stretch", type=float, default=0.25, help="allowed stretch of a content patch, +-fraction"
+    )
+    parser.add_argument(
+        "--stretch-step-s",
+        type=float,
+        default=4 / 60,
+        help="spacing of tried patch lengths, seconds (default: the report's 4 frames at 60 fps; 0 = every frame)",
+    )
+    parser.add_argument(
+        "--strength", default="1", help="0..1, or keyframes in content seconds such as 0:0,2:1"
+    )
+    parser.add_argument(
+        "--then-style", action="append", help="a second style to change to (see --at, --over)"
+    )
+    parser.add_argument("--at", type=float, help="content time (s) where the change to --then-style starts")
+    parser.add_argument("--over", type=float, default=1.0, help="duration (s) of the change to --then-style")
+    parser.add_argument("--blend-style", action="append", help="a second style blended in at --blend")
+    parser.add_argument("--blend", type=float, default=0.5, help="share of --blend-style, 0..1 (default 0.5)")
+    parser.add_argument(
+        "--no-mirror-style", action="store_true", help="do not add the style's mirror to its library"
+    )
+    parser.add_argument("--explain", help="write a JSON record of every output patch's source")
+    parser.add_argument("--force", action="store_true", help="overwrite existing output files")
+    parser.set_defaults(run=run_transfer)
+
+
+def _outputs(args: argparse.Namespace) -> list[Path]:
+    from elastyle.io.files import check_output_path
+
+    contents = args.content
+    output = Path(args.output)
+    if len(contents) == 1 and not (args.output.endswith(("/", "\\")) or output.is_dir()):
+        return [check_output_path(output, force=args.force, inputs=tuple(contents))]
+    if not output.is_dir():
+        raise OutputError(f"{output}: several content clips need an existing output folder")
+    targets = [output / (Path(c).stem + ".bvh") for c in contents]
+    if len(set(targets)) != len(targets):
+        raise OutputError(f"{output}: two content clips share a file name")
+    return [check_output_path(t, force=args.force, inputs=tuple(contents)) for t in targets]
+
+
+def run_transfer(args: argparse.Namespace) -> int:
+    from elastyle.io.bvh import write_bvh
+    from elastyle.io.dataset import find_clips, read_clip
+    from elastyle.io.files import check_output_path, write_text_atomic
+    from elastyle.model.file import load_model
+    from elastyle.transfer.schedule import Schedule
+    from elastyle.transfer.stylize import TransferConfig, prepare_style, transfer
+
+    if args.then_style and args.blend_style:
+        raise _usage("give --then-style or --blend-style, not both")
+    if args.then_style and args.at is None:
+        raise _usage("--then-style needs --at SECONDS")
+    if args.explain and len(args.content) > 1:
+        raise _usage("--explain works with one content clip")
+    targets = _outputs(args)
+    if args.explain:
+        check_output_path(args.explain, force=args.force)
+    config = TransferConfig(
+        method=args.method,
+        placement=args.placement,
+        patch_s=args.patch_s,
+        stretch=args.stretch,
+        stretch_step_s=args.stretch_step_s,
+        mirror_style=not args.no_mirror_style,
+    )
+    strength = Schedule.parse(args.strength, "strength")
+    model = load_model(args.model)
+
+    def library(specs: list[str]):  # type: ignore[no-untyped-def]
+        clips = find_clips(specs)
+        motions = [clip.read()[0] for clip in clips]
+        for clip, motion in zip(clips, motions):
+            model.check_clip(motion, clip.name)
+            if abs(motion.fps - model.fps) > 1e-6:
+                log.info(
+                    "note: %s is %.6g fps, resampled to the model's %.6g fps",
+                    clip.name,
+                    motion.fps,
+                    model.fps,
+                )
+        return prepare_style(model, motions, [c.name for c in clips], config.mirror_style)
+
+    style = library(args.style)
+    second = None
+    second_weight: Schedule = Schedule.constant(0.0)
+    if args.then_style:
+        second = library(args.then_style)
+        end = args.at + max(args.over, 1e-3)
+        second_weight = Schedule((args.at, end), (0.0, 1.0))
+    elif args.blend_style:
+        if not 0 <= args.blend <= 1:
+            raise _usage(f"--blend must lie between 0 and 1, got {args.blend}")
+        second = library(args.blend_style)
+        second_weight = Schedule.constant(args.blend)
+
+    failures = 0
+    for content_spec, target in zip(args.content, targets):
+        try:
+            motion, layout = read_clip(content_spec)
+            result = transfer(
+                motion,
+                style,
+                model,
+                config,
+                strength=strength,
+                second_style=second,
+                second_weight=second_weight,
+                content_name=content_spec,
+            )
+            write_bvh(target, result.motion, layout, force=args.force)
+            if args.explain:
+                explain = dict(result.explain, content=content_spec, output=str(target))
+                write_text_atomic(args.explain, json.dumps(explain, indent=1), force=args.force)
+            log.info(
+                "wrote %s (%d frames, %.2f s; content %.2f s)",
+                target,
+                result.motion.num_frames,
+                result.motion.duration_s,
+                motion.duration_s,
+            )
+        except ElastyleError as error:
+            if len(args.content) == 1:
+                raise
+            failures += 1
+            log.error("elastyle: error: %s", error)
+    return 1 if failures else 0
+
+
+def _usage(message: str) -> ElastyleError:
+    return UsageError(message)

@@ -1,0 +1,138 @@
+"""The command line, as a user runs it: real clips in, files out, one-line errors, exit codes."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from elastyle.cli import main
+from elastyle.io.dataset import ClipRef
+from tests.conftest import THREE_CHANNEL_BVH, clip_named
+
+
+def run(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "elastyle.cli", *args], capture_output=True, text=True)
+
+
+def _member(clip: ClipRef) -> str:
+    return clip.name  # a path inside the zip archive or a file
+
+
+@pytest.fixture
+def walk(dataset_clips: list[ClipRef]) -> str:
+    return _member(clip_named(dataset_clips, "dataset-2_walk_normal_005"))
+
+
+@pytest.fixture
+def style(dataset_clips: list[ClipRef]) -> str:
+    return _member(clip_named(dataset_clips, "dataset-2_walk_exhausted_005"))
+
+
+def test_info_prints_the_clip_facts(walk: str, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["info", walk]) == 0
+    out = capsys.readouterr().out
+    assert "joints:   22" in out and "30 fps" in out and "132 (6 per joint)" in out
+
+
+def test_convert_resamples_and_mirrors(walk: str, tmp_path: Path) -> None:
+    out = tmp_path / "mirrored60.bvh"
+    assert main(["convert", walk, "-o", str(out), "--fps", "60", "--mirror"]) == 0
+    text = out.read_text()
+    assert "Frame Time: 0.0166667" in text
+    assert main(["convert", walk, "-o", str(out)]) == 1  # exists, no --force
+    assert main(["convert", walk, "-o", str(out), "--force"]) == 0
+
+
+def test_transfer_writes_bvh_and_explain(walk: str, style: str, tmp_path: Path) -> None:
+    out = tmp_path / "tired.bvh"
+    explain = tmp_path / "tired.json"
+    assert main(["transfer", walk, "--style", style, "-o", str(out), "--explain", str(explain)]) == 0
+    assert out.read_text().startswith("HIERARCHY")
+    record = json.loads(explain.read_text())
+    assert record["method"] == "elastic" and record["styles"][0]["patches"]
+
+
+def test_transfer_batch_into_folder(
+    walk: str, style: str, dataset_clips: list[ClipRef], tmp_path: Path
+) -> None:
+    second = _member(clip_named(dataset_clips, "dataset-2_walk_normal_010"))
+    assert main(["transfer", walk, second, "--style", style, "-o", str(tmp_path), "--method", "rigid"]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "dataset-2_walk_normal_005.bvh",
+        "dataset-2_walk_normal_010.bvh",
+    ]
+
+
+def test_transfer_transition_and_blend(
+    walk: str, style: str, dataset_clips: list[ClipRef], tmp_path: Path
+) -> None:
+    other = _member(clip_named(dataset_clips, "dataset-2_walk_active_005"))
+    assert (
+        main(
+            [
+                "transfer",
+                walk,
+                "--style",
+                style,
+                "--then-style",
+                other,
+                "--at",
+                "2",
+                "--over",
+                "2",
+                "-o",
+                str(tmp_path / "a.bvh"),
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "transfer",
+                walk,
+                "--style",
+                style,
+                "--blend-style",
+                other,
+                "--blend",
+                "0.3",
+                "-o",
+                str(tmp_path / "b.bvh"),
+            ]
+        )
+        == 0
+    )
+
+
+def test_errors_are_one_line_with_exit_codes(walk: str, tmp_path: Path) -> None:
+    bad = tmp_path / "bad.bvh"
+    bad.write_text(THREE_CHANNEL_BVH.replace("1 20 0 90", "1 20 0 oops"))
+    out = tmp_path / "out.bvh"
+    result = run("transfer", str(bad), "--style", walk, "-o", str(out))
+    assert result.returncode == 1
+    assert result.stderr.strip().count("\n") == 0
+    assert "bad.bvh:" in result.stderr and "not a number" in result.stderr
+    assert not out.exists()
+    tiny = tmp_path / "tiny.bvh"
+    tiny.write_text(THREE_CHANNEL_BVH)
+    mismatch = run("transfer", str(tiny), "--style", walk, "-o", str(out))
+    assert mismatch.returncode == 1 and "only in the model" in mismatch.stderr
+    assert not out.exists()
+    usage = run("transfer", walk, "--style", walk, "--then-style", walk, "-o", str(out))
+    assert usage.returncode == 2 and "--at" in usage.stderr
+    missing = run("info", str(tmp_path / "nope.bvh"))
+    assert missing.returncode == 1 and "no such file" in missing.stderr
+    assert "Traceback" not in missing.stderr + mismatch.stderr + result.stderr
+
+
+def test_output_equal_to_input_is_refused(tmp_path: Path) -> None:
+    clip = tmp_path / "clip.bvh"
+    clip.write_text(THREE_CHANNEL_BVH)
+    result = run("convert", str(clip), "-o", str(clip), "--force")
+    assert result.returncode == 1 and "overwrite an input" in result.stderr
+    assert clip.read_text() == THREE_CHANNEL_BVH

@@ -1,0 +1,130 @@
+"""The autoencoder: numpy inference against torch, the model file, and a short real training."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from elastyle import ModelError, SkeletonMismatchError, read_bvh
+from elastyle.model.file import FORMAT_VERSION, load_model, save_model
+
+torch = pytest.importorskip("torch")
+
+
+@pytest.mark.parametrize("tied", [True, False])
+def test_numpy_forward_matches_torch(tied: bool) -> None:
+    from elastyle.model.config import ModelConfig
+    from elastyle.train import _torch_autoencoder
+
+    torch.manual_seed(0)
+    config = ModelConfig(hidden_channels=64, latent_channels=16, kernel_frames=15, tied=tied)
+    network = _torch_autoencoder(config, 21)
+    x = torch.randn(1, 21, 90)
+    with torch.no_grad():
+        latents_torch = network.encode(x)[0].T.numpy()
+        output_torch = network(x)[0].T.numpy()
+    from elastyle.model.autoencoder import Autoencoder
+
+    numpy_model = Autoencoder(config, network.numpy_weights())
+    features = x[0].T.numpy()
+    np.testing.assert_allclose(numpy_model.encode(features), latents_torch, atol=1e-5)
+    np.testing.assert_allclose(numpy_model.decode(latents_torch), output_torch, atol=1e-5)
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory: pytest.TempPathFactory, data_path: Path):  # type: ignore[no-untyped-def]
+    """A short real training on a small subset of dataset walks (a few hundred steps)."""
+    from elastyle.train import TrainConfig, train
+
+    out = tmp_path_factory.mktemp("model") / "walks.npz"
+    data = (
+        f"{data_path}/bandai-namco-2/data/dataset-2_walk_*_00[1-6].bvh"
+        if str(data_path).endswith(".zip")
+        else str(data_path)
+    )
+    model = train([data], str(out), TrainConfig(steps=300, learning_rate=1e-3, seed=0), progress=False)
+    return out, model
+
+
+@pytest.mark.slow
+def test_short_training_lowers_loss_and_round_trips(trained) -> None:  # type: ignore[no-untyped-def]
+    path, model = trained
+    assert model.metadata["steps"] == 300
+    # an untrained autoencoder's loss on normalised features is about 1 (their variance)
+    assert model.metadata["held_out_loss"] < 0.5
+    assert model.metadata["final_train_loss"] < 0.5
+    loaded = load_model(path)
+    assert loaded.skeleton.names == model.skeleton.names
+    np.testing.assert_array_equal(loaded.autoencoder.weights.conv1, model.autoencoder.weights.conv1)
+    np.testing.assert_array_equal(loaded.feature_std, model.feature_std)
+    assert loaded.fps == model.fps
+
+
+@pytest.mark.slow
+def test_training_resumes_from_checkpoint(trained, tmp_path: Path, data_path: Path) -> None:  # type: ignore[no-untyped-def]
+    from elastyle.train import TrainConfig, train
+
+    path, _ = trained
+    checkpoint = Path(str(path) + ".ckpt")
+    assert checkpoint.exists()
+    data = (
+        f"{data_path}/bandai-namco-2/data/dataset-2_walk_*_00[1-6].bvh"
+        if str(data_path).endswith(".zip")
+        else str(data_path)
+    )
+    resumed = train(
+        [data],
+        str(tmp_path / "more.npz"),
+        TrainConfig(steps=320, learning_rate=1e-3),
+        resume=str(checkpoint),
+        progress=False,
+    )
+    assert resumed.metadata["steps"] == 320
+
+
+def test_shipped_model_loads_without_torch_and_pickle() -> None:
+    import subprocess
+    import sys
+
+    code = (
+        "import sys; sys.modules['torch'] = None\n"
+        "from elastyle.model.file import load_model\n"
+        "m = load_model(); print(m.skeleton.num_joints, m.fps)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split()[0] == "22"
+
+
+def test_bad_model_files_give_model_errors(tmp_path: Path) -> None:
+    with pytest.raises(ModelError, match="no such model file"):
+        load_model(tmp_path / "missing.npz")
+    garbage = tmp_path / "garbage.npz"
+    garbage.write_bytes(b"\x00\x01not a model at all")
+    with pytest.raises(ModelError, match="not an elastyle model"):
+        load_model(garbage)
+    shipped = load_model()
+    good = tmp_path / "good.npz"
+    save_model(good, shipped)
+    truncated = tmp_path / "truncated.npz"
+    truncated.write_bytes(good.read_bytes()[: good.stat().st_size // 2])
+    with pytest.raises(ModelError, match="not an elastyle model"):
+        load_model(truncated)
+    foreign = tmp_path / "foreign.npz"
+    np.savez(foreign, weights=np.zeros(3))
+    with pytest.raises(ModelError, match="no format_version"):
+        load_model(foreign)
+    with np.load(good, allow_pickle=False) as archive:
+        arrays = {k: archive[k] for k in archive.files}
+    arrays["format_version"] = np.array(FORMAT_VERSION + 1)
+    newer = tmp_path / "newer.npz"
+    np.savez(newer, **arrays)
+    with pytest.raises(ModelError, match="format version"):
+        load_model(newer)
+
+
+def test_model_with_other_skeleton_lists_the_joints(three_channel_bvh: Path) -> None:
+    motion, _ = read_bvh(three_channel_bvh)
+    with pytest.raises(SkeletonMismatchError, match="only in the model: joint_Root, Hips"):
+        load_model().check_clip(motion, "tiny_xyz.bvh")

@@ -1,0 +1,42 @@
+"""Rotation helpers against scipy, the reference, including the identity and angles near pi."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from elastyle.rotations import from_matrix, multiply, slerp_resample, to_matrix, to_quat
+
+
+def _random_rotvecs(count: int) -> np.ndarray:
+    rng = np.random.default_rng(0)
+    rotvecs = Rotation.random(count, random_state=1).as_rotvec()
+    rotvecs[:3] = [[0, 0, 0], [np.pi - 1e-7, 0, 0], [0, 1e-9, 0]]  # identity, near pi, tiny
+    return rotvecs * rng.uniform(0.5, 1.0, size=(count, 1)) ** 0
+
+
+def test_matrices_match_scipy() -> None:
+    rotvecs = _random_rotvecs(500)
+    np.testing.assert_allclose(to_matrix(rotvecs), Rotation.from_rotvec(rotvecs).as_matrix(), atol=1e-12)
+    back = from_matrix(to_matrix(rotvecs))
+    np.testing.assert_allclose(to_matrix(back), to_matrix(rotvecs), atol=1e-9)
+
+
+def test_quaternions_match_scipy_up_to_sign() -> None:
+    rotvecs = _random_rotvecs(500)
+    ours = to_quat(rotvecs)
+    theirs = Rotation.from_rotvec(rotvecs).as_quat()
+    np.testing.assert_allclose(np.abs(np.sum(ours * theirs, axis=-1)), 1.0, atol=1e-12)
+
+
+def test_multiply_matches_scipy_and_broadcasts() -> None:
+    a, b = _random_rotvecs(200), _random_rotvecs(200)[::-1]
+    expected = (Rotation.from_rotvec(a) * Rotation.from_rotvec(b)).as_matrix()
+    np.testing.assert_allclose(to_matrix(multiply(a, b)), expected, atol=1e-9)
+    assert multiply(a[:1], b).shape == (200, 3)
+
+
+def test_slerp_halfway() -> None:
+    rotvecs = np.array([[[0.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]]])
+    middle = slerp_resample(rotvecs, np.array([0.5]))
+    np.testing.assert_allclose(middle[0, 0], [0.0, 0.5, 0.0], atol=1e-12)

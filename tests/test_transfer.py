@@ -1,0 +1,141 @@
+"""The style converter on real dataset walks: methods, placement, controls, root handling, edge cases."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from elastyle import ClipTooShortError, Motion
+from elastyle.eval.metrics import cadence_steps_s, timing_error
+from elastyle.eval.reconstruction import reconstruct
+from elastyle.io.dataset import ClipRef
+from elastyle.model.file import load_model
+from elastyle.transfer.stylize import TransferConfig, prepare_style, transfer
+from tests.conftest import clip_named
+
+
+@pytest.fixture(scope="module")
+def model():  # type: ignore[no-untyped-def]
+    return load_model()
+
+
+@pytest.fixture(scope="module")
+def content(dataset_clips: list[ClipRef]) -> Motion:
+    # held-out take (take % 5 == 0) of a neutral walk
+    return clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0]
+
+
+@pytest.fixture(scope="module")
+def style_clip(dataset_clips: list[ClipRef]) -> Motion:
+    return clip_named(dataset_clips, "dataset-2_walk_active_010").read()[0]
+
+
+def _path(motion: Motion) -> np.ndarray:
+    return motion.positions()[:, motion.skeleton.pelvis][:, [0, 2]]
+
+
+@pytest.mark.parametrize("method", ["elastic", "rigid", "wct", "adain"])
+def test_each_method_gives_a_clip_on_the_content_skeleton(
+    model, content: Motion, style_clip: Motion, method: str
+) -> None:  # type: ignore[no-untyped-def]
+    result = transfer(content, style_clip, model, TransferConfig(method=method))
+    out = result.motion
+    assert out.skeleton is content.skeleton
+    assert out.fps == content.fps
+    assert np.all(np.isfinite(out.rotations))
+    if method in ("wct", "adain", "rigid"):
+        assert out.num_frames == content.num_frames  # no stretch: the content's own timeline
+    # the root walks the content's path: same start and end point (within a stride's sway)
+    np.testing.assert_allclose(_path(out)[0], _path(content)[0], atol=15)
+    np.testing.assert_allclose(_path(out)[-1], _path(content)[-1], atol=15)
+    # and it looks like a walk that differs from the content
+    assert out.positions()[:, :, 1].max() > 120
+
+
+def test_elastic_takes_the_style_timing_and_rigid_does_not(
+    model, content: Motion, style_clip: Motion
+) -> None:  # type: ignore[no-untyped-def]
+    f_content, f_style = cadence_steps_s(content), cadence_steps_s(style_clip)
+    assert abs(f_content - f_style) > 0.15
+    elastic = transfer(content, style_clip, model).motion
+    rigid = transfer(content, style_clip, model, TransferConfig(method="rigid")).motion
+    fixed = transfer(content, style_clip, model, TransferConfig(placement="fixed")).motion
+    e_elastic = timing_error(cadence_steps_s(elastic), f_content, f_style)
+    e_rigid = timing_error(cadence_steps_s(rigid), f_content, f_style)
+    e_fixed = timing_error(cadence_steps_s(fixed), f_content, f_style)
+    assert e_elastic < 0.5 < e_rigid
+    assert e_fixed > 0.5  # the literal placement keeps the content's timing
+    assert fixed.num_frames == content.num_frames
+
+
+def test_strength_zero_is_the_content_through_the_autoencoder(
+    model, content: Motion, style_clip: Motion
+) -> None:  # type: ignore[no-untyped-def]
+    out = transfer(content, style_clip, model, strength=0.0).motion
+    assert out.num_frames == content.num_frames
+    np.testing.assert_allclose(out.positions(), reconstruct(model, content).positions(), atol=1e-3)
+
+
+def test_strength_schedule_fades_the_style_in(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
+    faded = transfer(content, style_clip, model, strength="0:0,2:0,4:1").motion
+    plain = reconstruct(model, content)
+    # during the first two seconds the output is the content (through the autoencoder), frame for frame
+    np.testing.assert_allclose(faded.positions()[:45], plain.positions()[:45], atol=1e-3)
+    full = transfer(content, style_clip, model).motion
+    assert faded.num_frames != content.num_frames or full.num_frames == content.num_frames
+
+
+def test_transition_and_blend_of_two_styles(
+    model, content: Motion, style_clip: Motion, dataset_clips
+) -> None:  # type: ignore[no-untyped-def]
+    slow_style = clip_named(dataset_clips, "dataset-2_walk_masculine_010").read()[0]
+    only_first = transfer(content, style_clip, model).motion
+    change = transfer(content, style_clip, model, second_style=slow_style, second_weight="3:0,5:1").motion
+    # before the change begins, the output is the first style's
+    np.testing.assert_allclose(change.positions()[:60], only_first.positions()[:60], atol=1e-3)
+    blend = transfer(content, style_clip, model, second_style=slow_style, second_weight=0.5).motion
+    assert np.all(np.isfinite(blend.rotations))
+
+
+def test_explain_lists_every_patch(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
+    result = transfer(content, style_clip, model, style_names=["slow.bvh"])
+    patches = result.explain["styles"][0]["patches"]
+    assert len(patches) >= content.duration_s / 1.25 - 1
+    for row in patches:
+        assert row["style_clip"] == "slow.bvh"
+        assert 0.73 <= row["stretch"] <= 1.27
+        assert -1 <= row["similarity"] <= 1
+        assert 0 <= row["style_start_frame"] < style_clip.num_frames
+    assert any(row["style_mirrored"] for row in patches) or any(not row["style_mirrored"] for row in patches)
+
+
+def test_style_library_of_several_clips_and_a_short_style(model, content: Motion, dataset_clips) -> None:  # type: ignore[no-untyped-def]
+    styles = [clip_named(dataset_clips, f"dataset-2_walk_elderly_{take:03d}").read()[0] for take in (5, 10)]
+    library = prepare_style(model, styles, ["a.bvh", "b.bvh"])
+    result = transfer(content, library, model)
+    used = {row["style_clip"] for row in result.explain["styles"][0]["patches"]}
+    assert used <= {"a.bvh", "b.bvh"}
+    short_style = styles[0].slice(0, 45)  # 1.5 s, shorter than the content
+    out = transfer(content, short_style, model).motion
+    assert np.all(np.isfinite(out.rotations))
+
+
+def test_content_shorter_than_one_patch_still_transfers(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
+    short = content.slice(0, 12)  # 0.4 s, less than the 1 s patch: documented fallback
+    out = transfer(short, style_clip, model).motion
+    assert 1 <= out.num_frames <= 12 * 1.5
+    with pytest.raises(ClipTooShortError, match="at least 2"):
+        transfer(content.slice(0, 1), style_clip, model)
+
+
+def test_style_shorter_than_minimum_patch_is_a_clear_error(
+    model, content: Motion, style_clip: Motion
+) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(ClipTooShortError, match="style clips are at most"):
+        transfer(content, style_clip.slice(0, 3), model, TransferConfig(mirror_style=False))
+
+
+def test_same_input_gives_identical_output(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
+    first = transfer(content, style_clip, model).motion
+    second = transfer(content, style_clip, model).motion
+    np.testing.assert_array_equal(first.rotations, second.rotations)
