@@ -68,18 +68,14 @@ class Skeleton:
         if self.same_as(other):
             return
         ours, theirs = set(self.names), set(other.names)
-        only_ours = [n for n in self.names if n not in theirs]
-        only_theirs = [n for n in other.names if n not in ours]
         parts = []
-        if only_ours:
-            parts.append(f"only in {what}: {', '.join(only_ours[:8])}{' ...' if len(only_ours) > 8 else ''}")
-        if only_theirs:
-            parts.append(
-                f"only in {other_what}: {', '.join(only_theirs[:8])}{' ...' if len(only_theirs) > 8 else ''}"
-            )
+        for label, names in ((what, [n for n in self.names if n not in theirs]),
+                             ("this clip", [n for n in other.names if n not in ours])):  # fmt: skip
+            if names:
+                parts.append(f"only in {label}: {', '.join(names[:8])}{' ...' if len(names) > 8 else ''}")
         if not parts:
             parts.append("same joints in a different order or hierarchy")
-        raise SkeletonMismatchError(f"skeleton of {what} differs from {other_what} ({'; '.join(parts)})")
+        raise SkeletonMismatchError(f"{other_what}: skeleton differs from {what} ({'; '.join(parts)})")
 
     def mirror_pairs(self) -> IntArray:
         """(J,) index of each joint's left/right partner (itself for centre joints), from joint names."""

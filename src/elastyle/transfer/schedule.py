@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from elastyle.errors import ElastyleError
+from elastyle.errors import UsageError as ElastyleError
 from elastyle.types import FloatArray
 
 

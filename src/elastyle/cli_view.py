@@ -1,0 +1,94 @@
+"""`elastyle view` (a local web viewer) and `elastyle render` (clips side by side to a GIF or MP4)."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from pathlib import Path
+from typing import Any
+
+from elastyle.errors import ElastyleError, UsageError
+
+log = logging.getLogger("elastyle")
+
+DEFAULT_PORT = 8765
+
+
+def add_view_commands(commands: Any) -> None:
+    """Register the `view` and `render` subcommands on an argparse subparsers object."""
+    view = commands.add_parser(
+        "view",
+        help="watch clips side by side in a local web viewer (127.0.0.1 only)",
+        description="Serve a page on 127.0.0.1 that plays the clips side by side (or overlaid) in sync.",
+    )
+    view.add_argument("clips", nargs="+", help="BVH files (or paths inside a zip archive)")
+    view.add_argument(
+        "--port", type=int, help=f"port on 127.0.0.1 (default {DEFAULT_PORT}, or a free one if taken; 0 = any)"
+    )
+    view.add_argument("--no-browser", action="store_true", help="only serve and print the URL")
+    view.add_argument("--explain", help="JSON from `elastyle transfer --explain`: show each moment's style source")
+    view.set_defaults(run=run_view)
+
+    render = commands.add_parser(
+        "render",
+        help="render clips side by side to a GIF or MP4 (needs elastyle[render])",
+        description="Draw the clips side by side, one panel each, into an animated GIF or an MP4 video.",
+    )
+    render.add_argument("clips", nargs="+", help="BVH files (or paths inside a zip archive)")
+    render.add_argument("-o", "--output", required=True, help="output file: .gif or .mp4")
+    render.add_argument("--fps", type=float, help="frame rate (default: the clips', at most 30 for GIF)")
+    render.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    render.add_argument("--no-progress", action="store_true", help="no progress bar")
+    render.set_defaults(run=run_render)
+
+
+def _read_clips(specs: list[str]) -> tuple[list[Any], list[str]]:
+    from elastyle.io.dataset import read_clip
+
+    motions = [read_clip(spec)[0] for spec in specs]
+    return motions, [Path(spec).name for spec in specs]
+
+
+def run_render(args: argparse.Namespace) -> int:
+    from elastyle.io.files import check_output_path
+    from elastyle.render import render_clips
+
+    check_output_path(args.output, force=args.force, inputs=tuple(args.clips))
+    if args.fps is not None and not args.fps > 0:
+        raise UsageError(f"--fps must be positive, got {args.fps}")
+    motions, labels = _read_clips(args.clips)
+    num_frames = render_clips(
+        motions, labels, args.output, fps=args.fps, force=args.force, progress=not args.no_progress
+    )
+    log.info("wrote %s (%d frames, %d clips)", args.output, num_frames, len(motions))
+    return 0
+
+
+def run_view(args: argparse.Namespace) -> int:
+    import webbrowser
+
+    from elastyle.viewer.app import build_payload, make_server, read_explain, server_url
+
+    if args.port is not None and not 0 <= args.port <= 65535:
+        raise UsageError(f"--port must lie between 0 and 65535, got {args.port}")
+    explain = read_explain(args.explain) if args.explain else None
+    motions, labels = _read_clips(args.clips)
+    payload = build_payload(motions, labels, explain)
+    if args.port is None:
+        try:
+            server = make_server(payload, DEFAULT_PORT)
+        except ElastyleError:
+            server = make_server(payload, 0)  # the usual port is taken: any free one will do
+    else:
+        server = make_server(payload, args.port)
+    url = server_url(server)
+    try:
+        print(f"elastyle view: serving {len(motions)} clip(s) at {url} (Ctrl-C to stop)", flush=True)
+        if not args.no_browser and not webbrowser.open(url):
+            log.info("no browser found; open %s yourself", url)
+        server.serve_forever()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.server_close()
+    return 0

@@ -1,0 +1,261 @@
+"""Render clips side by side to an animated GIF or MP4 (the optional extra `elastyle[render]`).
+
+Each panel draws one clip's skeleton in a fixed oblique orthographic projection (+Y up), a ground grid and
+the pelvis path on the ground; the view follows the pelvis horizontally so a long walk stays in frame.
+matplotlib (Agg canvas, no window), Pillow and, for MP4, imageio-ffmpeg are imported only when called.
+"""
+
+from __future__ import annotations
+
+import io
+import logging
+import math
+import os
+import re
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from elastyle.errors import ElastyleError, OutputError
+from elastyle.io.files import check_output_path, write_bytes_atomic
+from elastyle.motion import Motion
+from elastyle.skeleton import Skeleton
+from elastyle.types import FloatArray, IntArray
+
+log = logging.getLogger("elastyle")
+
+INSTALL_HINT = "pip install 'elastyle[render]'"
+PANEL_PX = (256, 320)  # width, height of one panel; multiples of 16 for the MP4 encoder
+MAX_GIF_FPS = 50.0  # GIF delays count in 10 ms; players slow down anything below 20 ms
+_AZIMUTH_RAD = math.radians(35.0)  # camera swung from +Z (the front) towards +X
+_ELEVATION_RAD = math.radians(18.0)  # camera above the ground plane, looking down
+_LEFT = re.compile(r"(^|[_.])l($|[_.])|left", re.IGNORECASE)
+_RIGHT = re.compile(r"(^|[_.])r($|[_.])|right", re.IGNORECASE)
+SIDE_COLOURS = ("#333333", "#1f6fd1", "#d1431f")  # centre, left, right
+GRID_COLOUR = "#d5d5d5"
+PATH_COLOUR = "#2a9d55"
+
+
+def bones(skeleton: Skeleton) -> IntArray:
+    """(B, 2) parent, child joint pairs to draw: every bone below the pelvis (not root -> pelvis)."""
+    pelvis = skeleton.pelvis
+    pairs = [(int(p), j) for j, p in enumerate(skeleton.parents) if p >= 0 and j > pelvis]
+    return np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+
+
+def joint_sides(skeleton: Skeleton) -> IntArray:
+    """(J,) 0 for centre joints, 1 for left, 2 for right, from the joint names."""
+    return np.asarray(
+        [1 if _LEFT.search(n) else 2 if _RIGHT.search(n) else 0 for n in skeleton.names], dtype=np.int64
+    )
+
+
+def project(points: FloatArray) -> FloatArray:
+    """World points (..., 3) -> screen points (..., 2) of the fixed oblique orthographic camera."""
+    right = np.array([math.cos(_AZIMUTH_RAD), 0.0, -math.sin(_AZIMUTH_RAD)])
+    away = np.array([-math.sin(_AZIMUTH_RAD), 0.0, -math.cos(_AZIMUTH_RAD)])  # from the camera into the scene
+    screen_x = points @ right
+    screen_y = points[..., 1] * math.cos(_ELEVATION_RAD) + (points @ away) * math.sin(_ELEVATION_RAD)
+    return np.stack([screen_x, screen_y], axis=-1)
+
+
+def sample_positions(positions: FloatArray, clip_fps: float, times_s: FloatArray) -> FloatArray:
+    """Joint positions (T, J, 3) at times (N,) seconds, linear between frames; held after the last frame."""
+    frames = np.clip(times_s * clip_fps, 0.0, positions.shape[0] - 1)  # (N,) fractional frame indices
+    lower = np.floor(frames).astype(np.int64)
+    upper = np.minimum(lower + 1, positions.shape[0] - 1)
+    weight = (frames - lower)[:, None, None]  # (N, 1, 1)
+    return (1 - weight) * positions[lower] + weight * positions[upper]  # (N, J, 3)
+
+
+def grid_spacing(height: float) -> float:
+    """A round grid spacing (1, 2 or 5 times a power of ten) of at most half the body height."""
+    base = 10.0 ** math.floor(math.log10(max(height / 2, 1e-9)))
+    return max(m * base for m in (1.0, 2.0, 5.0) if m * base <= height / 2 + 1e-9)
+
+
+def _grid_segments(centre: FloatArray, ground_y: float, spacing: float, radius: float) -> FloatArray:
+    """Screen segments (L, 2, 2) of ground lines within `radius` of world `centre` (3,), seen from it."""
+    lines = []
+    for axis in (0, 2):
+        other = 2 - axis
+        for k in range(math.floor((centre[axis] - radius) / spacing), math.ceil((centre[axis] + radius) / spacing) + 1):
+            ends = np.zeros((2, 3))
+            ends[:, axis] = k * spacing - centre[axis]
+            ends[:, other] = (-radius, radius)
+            ends[:, 1] = ground_y
+            lines.append(ends)
+    return project(np.asarray(lines))
+
+
+def _fonts() -> tuple[Any, Any]:
+    """matplotlib's bundled DejaVu fonts as Pillow fonts: the label and the (monospaced) time read-out."""
+    from matplotlib import font_manager
+    from PIL import ImageFont
+
+    sans = font_manager.findfont(font_manager.FontProperties(family="DejaVu Sans"))
+    mono = font_manager.findfont(font_manager.FontProperties(family="DejaVu Sans Mono"))
+    return ImageFont.truetype(sans, 13), ImageFont.truetype(mono, 11)
+
+
+def _import_backends(mp4: bool) -> tuple[Any, Any, Any, Any, Any]:
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.collections import LineCollection
+        from matplotlib.figure import Figure
+        from PIL import Image, ImageDraw
+    except ImportError as error:
+        raise ElastyleError(f"rendering needs matplotlib and Pillow ({error.name} missing): {INSTALL_HINT}") from None
+    if mp4:
+        try:
+            import imageio_ffmpeg  # noqa: F401
+        except ImportError:
+            raise ElastyleError(f"MP4 output needs imageio-ffmpeg: {INSTALL_HINT}") from None
+    return Figure, FigureCanvasAgg, LineCollection, Image, ImageDraw
+
+
+def render_clips(
+    motions: Sequence[Motion],
+    labels: Sequence[str],
+    output: str | os.PathLike[str],
+    fps: float | None = None,
+    force: bool = False,
+    progress: bool = True,
+) -> int:
+    """Render clips side by side, one panel each, to `output` (.gif or .mp4); returns the frame count.
+
+    Clips play from time 0 together; a shorter clip holds its last frame. `fps` defaults to the fastest clip's
+    rate (at most 30 for GIF). Lengths are drawn in each file's own unit (cm for the Bandai Namco data).
+    """
+    if len(motions) != len(labels):
+        raise ValueError(f"{len(motions)} motions but {len(labels)} labels")
+    if not motions:
+        raise ElastyleError("render: no clips given")
+    target = check_output_path(output, force=force)
+    suffix = target.suffix.lower()
+    if suffix not in (".gif", ".mp4"):
+        raise OutputError(f"{target}: unknown video format {suffix or '(none)'}; use .gif or .mp4")
+    fastest = max(m.fps for m in motions)
+    fps = float(fps) if fps is not None else (min(fastest, 30.0) if suffix == ".gif" else fastest)
+    if not fps > 0:
+        raise ElastyleError(f"render: --fps must be positive, got {fps}")
+    if suffix == ".gif" and fps > MAX_GIF_FPS:
+        raise ElastyleError(f"{target}: GIF players slow down above {MAX_GIF_FPS:g} fps; lower --fps or write .mp4")
+    Figure, FigureCanvasAgg, LineCollection, Image, ImageDraw = _import_backends(suffix == ".mp4")
+
+    # 1. Sample every clip at the output frame times; shorter clips hold their last frame.
+    num_frames = max(int(round((m.num_frames - 1) * fps / m.fps)) + 1 for m in motions)
+    times_s = np.arange(num_frames) / fps  # (N,)
+    positions = [sample_positions(m.positions(), m.fps, times_s) for m in motions]  # each (N, J, 3)
+    grounds = [float(p[..., 1].min()) for p in positions]
+    height = max(float(p[..., 1].max()) - g for p, g in zip(positions, grounds))
+    height = height if height > 0 else 1.0
+    spacing = grid_spacing(height)
+
+    # 2. One figure, one axes per panel; artists are created once and updated per frame.
+    width_px, height_px = PANEL_PX[0] * len(motions), PANEL_PX[1]
+    dpi = 64
+    figure = Figure(figsize=(width_px / dpi, height_px / dpi), dpi=dpi, facecolor="white")
+    canvas = FigureCanvasAgg(figure)
+    panels = []
+    for index, (motion, label) in enumerate(zip(motions, labels)):
+        axes = figure.add_axes((index / len(motions), 0.0, 1 / len(motions), 1.0))
+        axes.set_axis_off()
+        axes.set_xlim(-0.6 * height, 0.6 * height)
+        axes.set_ylim(-0.38 * height, 1.12 * height)
+        grid = LineCollection([], colors=GRID_COLOUR, linewidths=1.0)
+        axes.add_collection(grid)
+        (path_line,) = axes.plot([], [], color=PATH_COLOUR, linewidth=1.6)
+        pairs = bones(motion.skeleton)
+        colours = [SIDE_COLOURS[s] for s in joint_sides(motion.skeleton)[pairs[:, 1]]]
+        skeleton_lines = LineCollection([], colors=colours, linewidths=2.6, capstyle="round")
+        axes.add_collection(skeleton_lines)
+        pelvis = motion.skeleton.pelvis
+        path = positions[index][:, pelvis].copy()  # (N, 3) pelvis path, dropped onto the ground
+        path[:, 1] = grounds[index]
+        panels.append((motion, grid, path_line, skeleton_lines, pairs, path))
+    # Text through Pillow: matplotlib's text layout would cost two thirds of every frame.
+    label_font, clock_font = _fonts()
+    names = [label if len(label) <= 34 else "..." + label[-31:] for label in labels]
+
+    # 3. Draw each frame and hand it to the encoder.
+    frames: list[Any] = []
+    writer = None
+    temporary = tempfile.TemporaryDirectory(prefix="elastyle-render-")
+    try:
+        if suffix == ".mp4":
+            import imageio_ffmpeg
+
+            movie = Path(temporary.name) / "render.mp4"
+            writer = imageio_ffmpeg.write_frames(str(movie), (width_px, height_px), fps=fps, quality=7,
+                                                 macro_block_size=16, ffmpeg_log_level="error")
+            writer.send(None)
+        palette = _palette(Image, ("#000000", GRID_COLOUR, PATH_COLOUR, *SIDE_COLOURS))
+        for frame in _progress(range(num_frames), progress, target.name):
+            for index, (_, grid, path_line, skeleton_lines, pairs, path) in enumerate(panels):
+                centre = path[frame] * np.array([1.0, 0.0, 1.0])  # follow the pelvis horizontally
+                grid.set_segments(_grid_segments(path[frame], grounds[index], spacing, 2.5 * height))
+                traced = project(path[: frame + 1] - centre)  # (frame + 1, 2)
+                path_line.set_data(traced[:, 0], traced[:, 1])
+                joints = project(positions[index][frame] - centre)  # (J, 2)
+                skeleton_lines.set_segments(joints[pairs])  # (B, 2, 2)
+            canvas.draw()
+            image = Image.fromarray(np.asarray(canvas.buffer_rgba())[..., :3])  # (H, W, 3) uint8
+            pen = ImageDraw.Draw(image)
+            for index, (motion, *_) in enumerate(panels):
+                middle = (index + 0.5) * PANEL_PX[0]
+                own = min(int(round(times_s[frame] * motion.fps)), motion.num_frames - 1)
+                pen.text((middle, 6), names[index], fill="black", font=label_font, anchor="mt")
+                readout = f"t = {times_s[frame]:.2f} s  frame {own + 1}/{motion.num_frames}"
+                pen.text((middle, PANEL_PX[1] - 6), readout, fill="black", font=clock_font, anchor="mb")
+            if writer is not None:
+                writer.send(image.tobytes())
+                continue
+            frames.append(image.quantize(palette=palette, dither=Image.Dither.NONE))
+        if writer is not None:
+            writer.close()
+            writer = None
+            data = movie.read_bytes()
+        else:
+            buffer = io.BytesIO()
+            frames[0].save(buffer, format="GIF", save_all=True, append_images=frames[1:], loop=0,
+                           duration=_gif_durations_ms(num_frames, fps), disposal=1, optimize=False)
+            data = buffer.getvalue()
+    except OSError as error:
+        raise OutputError(f"{target}: rendering failed: {error}") from None
+    finally:
+        if writer is not None:
+            writer.close()
+        temporary.cleanup()
+    write_bytes_atomic(target, data, force=force)
+    log.debug("rendered %d frames to %s", num_frames, target)
+    return num_frames
+
+
+def _gif_durations_ms(num_frames: int, fps: float) -> list[int]:
+    """Per-frame delays in whole 10 ms steps whose running sum stays on the true clock."""
+    ticks = np.round(np.arange(num_frames + 1) * 100.0 / fps).astype(np.int64) * 10  # (N + 1,) ms
+    return [int(d) for d in np.maximum(np.diff(ticks), 10)]
+
+
+def _palette(image_module: Any, colours: Sequence[str]) -> Any:
+    """One GIF palette for every frame: each drawing colour blended towards the white background."""
+    from PIL import ImageColor
+
+    blend = np.linspace(0.0, 1.0, 40)[:, None]  # (40, 1)
+    swatches = [np.asarray(ImageColor.getrgb(c)[:3]) * (1 - blend) + 255 * blend for c in colours]
+    strip = np.concatenate(swatches).round().astype(np.uint8)[None]  # (1, 40 * colours, 3)
+    return image_module.fromarray(strip).quantize(colors=255, method=image_module.Quantize.MEDIANCUT)
+
+
+def _progress(frames: range, enabled: bool, name: str) -> Any:
+    if not enabled or len(frames) < 60:
+        return frames
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return frames
+    return tqdm(frames, desc=f"render {name}", unit="frame", leave=False)

@@ -1,0 +1,255 @@
+"""Every bad input through the CLI: exit code, one line on stderr naming the file, and no output file.
+
+Also: random mutations of real dataset files only ever give a clean `BvhError` or a valid motion, and
+the same transfer gives byte-identical files, also across processes.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from elastyle import BvhError, read_bvh, write_bvh
+from elastyle.io.bvh import parse_bvh
+from elastyle.io.dataset import ClipRef
+from tests.conftest import THREE_CHANNEL_BVH, clip_named
+
+GOOD = THREE_CHANNEL_BVH
+
+
+def _cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "elastyle.cli", *args], capture_output=True, text=True, cwd=cwd)
+
+
+# (name, file content as bytes, expected words in the message)
+BAD_FILES: list[tuple[str, bytes, str]] = [
+    ("empty", b"", "empty file"),
+    ("binary", bytes(range(256)) * 4, "binary data"),
+    ("latin1", "HIERARCHY\nROOT h\xe9\n{\n".encode("latin-1"), "ends inside HIERARCHY"),
+    ("truncated-hierarchy", GOOD[:200].encode(), "ends inside HIERARCHY"),
+    ("truncated-motion", GOOD[: GOOD.index("Frame Time")].encode(), "Frame Time"),
+    ("truncated-row", GOOD[:-20].encode(), "row has"),
+    ("frame-count", GOOD.replace("Frames: 3", "Frames: 5").encode(), "Frames: 5"),
+    ("too-many-values", GOOD.replace("0 20 0 0 0 0 0", "0 20 0 0 0 0 0 1 2", 1).encode(), "row has 23 values"),
+    ("non-numeric", GOOD.replace("1 20 0 90", "1 20 0 abc").encode(), "not a number"),
+    ("nan", GOOD.replace("1 20 0 90", "1 20 0 NaN").encode(), "NaN or infinite"),
+    ("inf", GOOD.replace("1 20 0 90", "1 20 0 inf").encode(), "NaN or infinite"),
+    ("unknown-channel", GOOD.replace("Xposition", "Wposition").encode(), "unknown channel"),
+    ("duplicate-joint", GOOD.replace("JOINT RightLeg", "JOINT LeftLeg").encode(), "duplicate joint name"),
+    ("zero-frames", GOOD.replace("Frames: 3", "Frames: 0").encode(), "no frames"),
+    ("bad-frame-time", GOOD.replace("Frame Time: 0.0083333", "Frame Time: 0").encode(), "frame time must be positive"),
+]
+
+
+@pytest.mark.parametrize(("name", "content", "message"), BAD_FILES, ids=[b[0] for b in BAD_FILES])
+@pytest.mark.parametrize("command", ["info", "convert"])
+def test_bad_bvh_files_through_the_cli(tmp_path: Path, name: str, content: bytes, message: str, command: str) -> None:
+    bad = tmp_path / f"{name}.bvh"
+    bad.write_bytes(content)
+    out = tmp_path / "out.bvh"
+    args = [command, str(bad)] + (["-o", str(out)] if command == "convert" else [])
+    result = _cli(*args)
+    assert result.returncode == 1, result.stderr
+    line = result.stderr.strip()
+    assert "\n" not in line and "Traceback" not in line
+    assert f"{name}.bvh" in line and message in line, line
+    assert not out.exists()
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out.bvh")]  # no temporary left
+
+
+def test_bad_bvh_as_transfer_content_and_style(tmp_path: Path, dataset_clips: list[ClipRef]) -> None:
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005").name
+    bad = tmp_path / "broken.bvh"
+    bad.write_text(GOOD.replace("1 20 0 90", "1 20 0 nan"))
+    out = tmp_path / "out.bvh"
+    for args in (["transfer", str(bad), "--style", walk], ["transfer", walk, "--style", str(bad)]):
+        result = _cli(*args, "-o", str(out))
+        assert result.returncode == 1 and "broken.bvh:" in result.stderr and "NaN" in result.stderr
+        assert not out.exists()
+
+
+def test_path_problems(tmp_path: Path) -> None:
+    good = tmp_path / "good.bvh"
+    good.write_text(GOOD)
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    cases: list[tuple[list[str], str]] = [
+        (["info", str(tmp_path / "missing.bvh")], "no such file"),
+        (["info", str(empty)], "no BVH clips found"),
+        (["convert", str(tmp_path), "-o", str(tmp_path / "x.bvh")], "is a directory"),
+        (["convert", str(good), "-o", str(tmp_path / "no" / "such" / "x.bvh")], "does not exist"),
+        (["convert", str(good), "-o", str(good), "--force"], "overwrite an input"),
+        (["transfer", str(good), "--style", str(good), "-o", str(tmp_path / "a.bvh"), "--model", str(tmp_path / "m.npz")],
+         "no such model file"),
+    ]  # fmt: skip
+    for args, message in cases:
+        result = _cli(*args)
+        assert result.returncode == 1, (args, result.stderr)
+        assert message in result.stderr and result.stderr.count("\n") == 1, result.stderr
+
+
+def test_non_utf8_file_name(tmp_path: Path) -> None:
+    name = os.fsdecode(b"caf\xe9.bvh")
+    path = tmp_path / name
+    path.write_text(GOOD)
+    result = subprocess.run([sys.executable, "-m", "elastyle.cli", "info", str(path)], capture_output=True)
+    assert result.returncode == 0
+
+
+def test_usage_errors_exit_2(tmp_path: Path) -> None:
+    good = tmp_path / "good.bvh"
+    good.write_text(GOOD)
+    result = _cli("transfer", str(good), "-o", str(tmp_path / "x.bvh"))  # no --style
+    assert result.returncode == 2
+    result = _cli("transfer", str(good), "--style", str(good), "--strength", "2", "-o", str(tmp_path / "x.bvh"))
+    assert result.returncode == 2 and "--strength" in result.stderr
+
+
+def test_model_files_through_the_cli(tmp_path: Path, dataset_clips: list[ClipRef]) -> None:
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005").name
+    foreign = tmp_path / "foreign.npz"
+    np.savez(foreign, x=np.zeros(2))
+    pickled = tmp_path / "pickled.npz"
+    np.savez(pickled, format_version=np.array([{"evil": 1}], dtype=object))
+    truncated = tmp_path / "truncated.npz"
+    from elastyle.model.file import default_model_path
+
+    truncated.write_bytes(default_model_path().read_bytes()[:5000])
+    for model, message in ((foreign, "no format_version"), (pickled, "not an elastyle model"), (truncated, "not an elastyle model")):
+        result = _cli("transfer", walk, "--style", walk, "-o", str(tmp_path / "o.bvh"), "--model", str(model))
+        assert result.returncode == 1 and message in result.stderr, result.stderr
+        assert "Traceback" not in result.stderr
+
+
+def test_skeleton_mismatches_list_the_joints(tmp_path: Path, dataset_clips: list[ClipRef]) -> None:
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005").name
+    tiny = tmp_path / "tiny.bvh"
+    tiny.write_text(GOOD)
+    out = tmp_path / "o.bvh"
+    as_style = _cli("transfer", walk, "--style", str(tiny), "-o", str(out))
+    assert as_style.returncode == 1 and "tiny.bvh" in as_style.stderr and "tiny.bvh: skeleton differs from the model" in as_style.stderr and "only in this clip: pelvis" in as_style.stderr
+    mixed = _cli("transfer", walk, "--style", walk, "--style", str(tiny), "-o", str(out))
+    assert mixed.returncode == 1 and "only in the model: joint_Root" in mixed.stderr
+    assert not out.exists()
+
+
+def test_other_frame_rate_is_resampled_with_a_note(tmp_path: Path, dataset_clips: list[ClipRef]) -> None:
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005")
+    style = clip_named(dataset_clips, "dataset-2_walk_active_010")
+    fast = tmp_path / "style60.bvh"
+    assert _cli("convert", style.name, "-o", str(fast), "--fps", "60").returncode == 0
+    out = tmp_path / "o.bvh"
+    result = _cli("transfer", walk.name, "--style", str(fast), "-o", str(out))
+    assert result.returncode == 0 and "resampled" in result.stderr
+    motion, _ = read_bvh(out)
+    assert motion.fps == 30
+
+
+def test_still_t_pose_and_single_frame(tmp_path: Path, dataset_clips: list[ClipRef]) -> None:
+    walk, layout = clip_named(dataset_clips, "dataset-2_walk_normal_005").read()
+    from elastyle import Motion
+
+    still = Motion(walk.skeleton, np.zeros_like(walk.rotations), walk.translations.copy(), walk.fps)
+    still_path = tmp_path / "still.bvh"
+    write_bvh(still_path, still, layout)
+    out = tmp_path / "o.bvh"
+    assert _cli("transfer", str(still_path), "--style", walk and clip_named(dataset_clips, "dataset-2_walk_active_010").name,
+                "-o", str(out)).returncode == 0  # fmt: skip
+    assert _cli("transfer", clip_named(dataset_clips, "dataset-2_walk_normal_010").name, "--style", str(still_path),
+                "-o", str(tmp_path / "o2.bvh")).returncode == 0  # fmt: skip
+    single = tmp_path / "single.bvh"
+    write_bvh(single, walk.slice(0, 1), layout)
+    assert _cli("info", str(single)).returncode == 0
+    result = _cli("transfer", str(single), "--style", str(still_path), "-o", str(tmp_path / "o3.bvh"))
+    assert result.returncode == 1 and "at least 2" in result.stderr
+
+
+def test_failed_write_keeps_the_old_file(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from elastyle import OutputError
+
+    motion, layout = parse_bvh(GOOD.encode(), "good.bvh")
+    out = tmp_path / "out.bvh"
+    out.write_text("precious")
+
+    def fail(*args: object) -> None:
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(os, "replace", fail)
+    with pytest.raises(OutputError, match="No space left on device"):
+        write_bvh(out, motion, layout, force=True)
+    assert out.read_text() == "precious"
+    assert [p.name for p in tmp_path.iterdir()] == ["out.bvh"]
+
+
+Mutation = Callable[[list[str]], list[str]]
+
+
+@pytest.mark.slow
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_mutated_dataset_files_give_clean_errors(data: st.DataObject, walk_clip: ClipRef) -> None:
+    text = _walk_text(walk_clip)
+    lines = text.split("\n")
+    kind = data.draw(st.sampled_from(["truncate", "delete-token", "duplicate-token", "swap-lines", "random-bytes"]))
+    if kind == "truncate":
+        mutated = text[: data.draw(st.integers(0, len(text)))].encode()
+    elif kind in ("delete-token", "duplicate-token"):
+        index = data.draw(st.integers(0, len(lines) - 1))
+        tokens = lines[index].split()
+        if tokens:
+            k = data.draw(st.integers(0, len(tokens) - 1))
+            tokens = tokens[:k] + tokens[k + 1 :] if kind == "delete-token" else tokens[: k + 1] + tokens[k:]
+        lines[index] = " ".join(tokens)
+        mutated = "\n".join(lines).encode()
+    elif kind == "swap-lines":
+        i, j = data.draw(st.integers(0, len(lines) - 1)), data.draw(st.integers(0, len(lines) - 1))
+        lines[i], lines[j] = lines[j], lines[i]
+        mutated = "\n".join(lines).encode()
+    else:
+        raw = bytearray(text.encode())
+        for _ in range(data.draw(st.integers(1, 20))):
+            raw[data.draw(st.integers(0, len(raw) - 1))] = data.draw(st.integers(0, 255))
+        mutated = bytes(raw)
+    try:
+        motion, _ = parse_bvh(mutated, "mutated.bvh")
+    except BvhError as error:
+        assert str(error).startswith("mutated.bvh") and "\n" not in str(error)
+        return
+    assert np.all(np.isfinite(motion.rotations)) and np.all(np.isfinite(motion.translations))
+    assert motion.num_frames >= 1
+
+
+_TEXT_CACHE: dict[str, str] = {}
+
+
+def _walk_text(clip: ClipRef) -> str:
+    if clip.name not in _TEXT_CACHE:
+        from elastyle.io.bvh import bvh_text
+
+        motion, layout = clip.read()
+        _TEXT_CACHE[clip.name] = bvh_text(motion.slice(0, 20), layout)
+    return _TEXT_CACHE[clip.name]
+
+
+@pytest.mark.slow
+def test_same_transfer_is_byte_identical_across_processes(tmp_path: Path, dataset_clips: list[ClipRef]) -> None:
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005").name
+    style = clip_named(dataset_clips, "dataset-2_walk_active_010").name
+    outputs = []
+    for k in range(2):
+        out = tmp_path / f"o{k}.bvh"
+        result = subprocess.run(
+            [sys.executable, "-m", "elastyle.cli", "transfer", walk, "--style", style, "-o", str(out)],
+            capture_output=True, text=True,
+        )  # fmt: skip
+        assert result.returncode == 0, result.stderr
+        outputs.append(out.read_bytes())
+    assert outputs[0] == outputs[1]
