@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from elastyle.eval.reconstruction import reconstruction_report
 from elastyle.io.dataset import dataset_label, default_data_path, find_clips
@@ -22,6 +23,9 @@ def main() -> int:
     parser.add_argument("--data", default=str(default_data_path() or ""))
     parser.add_argument("--pattern", default="*_walk*")
     parser.add_argument("--clips", type=int, default=60, help="held-out clips to use (every n-th of them)")
+    parser.add_argument(
+        "--smooth-s", type=float, nargs="+", default=[0.0], help="decoder output low-pass sigma(s), s"
+    )
     args = parser.parse_args()
     clips = [
         c
@@ -36,12 +40,13 @@ def main() -> int:
         f"{'jerk x':>8}{'train min':>10}"
     )
     print(header)
-    for path in args.model:
+    for path, smooth_s in ((p, s) for p in args.model for s in args.smooth_s):
         model = load_model(path)
-        r = reconstruction_report(model, motions)
+        r = reconstruction_report(model, motions, smooth_s)
         minutes = model.metadata.get("training_minutes", float("nan"))
+        name = f"{Path(path).name if path else 'shipped'} smooth {smooth_s:g} s"
         print(
-            f"{str(path or 'shipped'):<40}{r['joint_error_cm']:>10.2f}{r['end_effector_error_cm']:>12.2f}"
+            f"{name:<40}{r['joint_error_cm']:>10.2f}{r['end_effector_error_cm']:>12.2f}"
             f"{r['skating_cm_s']:>11.1f}{r['original_skating_cm_s']:>7.1f}{r['skating_ratio']:>8.2f}{r['jerk_ratio']:>8.2f}{minutes:>10.1f}"
         )
     print("targets: " + ", ".join(f"{k} <= {v}" for k, v in TARGETS.items()))

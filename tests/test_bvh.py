@@ -121,3 +121,21 @@ def test_dataset_clip_matches_dataset_description(walk_clip) -> None:  # type: i
     # a person about 1.5 to 1.9 m tall, standing on the ground (cm)
     assert 140 < positions[:, :, 1].max() - 0 < 190
     assert abs(positions[:, :, 1].min()) < 10
+
+
+@pytest.mark.parametrize("order", ["XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX", "ZXZ"])
+def test_euler_conversions_match_scipy(order: str) -> None:
+    from elastyle.io.bvh import euler_to_rotvec, rotvec_to_euler
+
+    rng = np.random.default_rng(0)
+    angles = rng.uniform(-180, 180, size=(400, 3))
+    angles[:, 1] = rng.uniform(-89, 89, size=400) if len(set(order)) == 3 else rng.uniform(1, 179, size=400)
+    angles[:3] = [[0, 0, 0], [10, 90, 20], [30, -90, -40]]  # identity and gimbal lock
+    reference = Rotation.from_euler(order, angles, degrees=True)
+    ours = euler_to_rotvec(order, angles)
+    np.testing.assert_allclose(Rotation.from_rotvec(ours).as_matrix(), reference.as_matrix(), atol=1e-12)
+    back = rotvec_to_euler(order, ours)
+    np.testing.assert_allclose(
+        Rotation.from_euler(order, back, degrees=True).as_matrix(), reference.as_matrix(), atol=1e-9
+    )
+    np.testing.assert_allclose(back[3:], angles[3:], atol=1e-7)

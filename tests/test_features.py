@@ -95,3 +95,15 @@ def test_resample_keeps_duration_and_poses(walk_clip) -> None:  # type: ignore[n
     np.testing.assert_allclose(doubled.positions()[::2], motion.positions(), atol=1e-6)
     back = doubled.resample(motion.fps)
     np.testing.assert_allclose(back.positions(), motion.positions(), atol=1e-4)
+
+
+def test_smoothing_matches_scipy() -> None:
+    from scipy.ndimage import gaussian_filter1d
+
+    from elastyle.body import smooth
+
+    values = np.random.default_rng(0).normal(size=(50, 4, 3))
+    for sigma in (0.5, 1.0, 7.5):
+        np.testing.assert_allclose(
+            smooth(values, sigma), gaussian_filter1d(values, sigma, axis=0, mode="nearest"), atol=1e-12
+        )

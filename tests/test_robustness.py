@@ -26,7 +26,9 @@ GOOD = THREE_CHANNEL_BVH
 
 
 def _cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "elastyle.cli", *args], capture_output=True, text=True, cwd=cwd)
+    return subprocess.run(
+        [sys.executable, "-m", "elastyle.cli", *args], capture_output=True, text=True, cwd=cwd
+    )
 
 
 # (name, file content as bytes, expected words in the message)
@@ -38,20 +40,30 @@ BAD_FILES: list[tuple[str, bytes, str]] = [
     ("truncated-motion", GOOD[: GOOD.index("Frame Time")].encode(), "Frame Time"),
     ("truncated-row", GOOD[:-20].encode(), "row has"),
     ("frame-count", GOOD.replace("Frames: 3", "Frames: 5").encode(), "Frames: 5"),
-    ("too-many-values", GOOD.replace("0 20 0 0 0 0 0", "0 20 0 0 0 0 0 1 2", 1).encode(), "row has 23 values"),
+    (
+        "too-many-values",
+        GOOD.replace("0 20 0 0 0 0 0", "0 20 0 0 0 0 0 1 2", 1).encode(),
+        "row has 23 values",
+    ),
     ("non-numeric", GOOD.replace("1 20 0 90", "1 20 0 abc").encode(), "not a number"),
     ("nan", GOOD.replace("1 20 0 90", "1 20 0 NaN").encode(), "NaN or infinite"),
     ("inf", GOOD.replace("1 20 0 90", "1 20 0 inf").encode(), "NaN or infinite"),
     ("unknown-channel", GOOD.replace("Xposition", "Wposition").encode(), "unknown channel"),
     ("duplicate-joint", GOOD.replace("JOINT RightLeg", "JOINT LeftLeg").encode(), "duplicate joint name"),
     ("zero-frames", GOOD.replace("Frames: 3", "Frames: 0").encode(), "no frames"),
-    ("bad-frame-time", GOOD.replace("Frame Time: 0.0083333", "Frame Time: 0").encode(), "frame time must be positive"),
+    (
+        "bad-frame-time",
+        GOOD.replace("Frame Time: 0.0083333", "Frame Time: 0").encode(),
+        "frame time must be positive",
+    ),
 ]
 
 
 @pytest.mark.parametrize(("name", "content", "message"), BAD_FILES, ids=[b[0] for b in BAD_FILES])
 @pytest.mark.parametrize("command", ["info", "convert"])
-def test_bad_bvh_files_through_the_cli(tmp_path: Path, name: str, content: bytes, message: str, command: str) -> None:
+def test_bad_bvh_files_through_the_cli(
+    tmp_path: Path, name: str, content: bytes, message: str, command: str
+) -> None:
     bad = tmp_path / f"{name}.bvh"
     bad.write_bytes(content)
     out = tmp_path / "out.bvh"
@@ -109,7 +121,9 @@ def test_usage_errors_exit_2(tmp_path: Path) -> None:
     good.write_text(GOOD)
     result = _cli("transfer", str(good), "-o", str(tmp_path / "x.bvh"))  # no --style
     assert result.returncode == 2
-    result = _cli("transfer", str(good), "--style", str(good), "--strength", "2", "-o", str(tmp_path / "x.bvh"))
+    result = _cli(
+        "transfer", str(good), "--style", str(good), "--strength", "2", "-o", str(tmp_path / "x.bvh")
+    )
     assert result.returncode == 2 and "--strength" in result.stderr
 
 
@@ -123,7 +137,11 @@ def test_model_files_through_the_cli(tmp_path: Path, dataset_clips: list[ClipRef
     from elastyle.model.file import default_model_path
 
     truncated.write_bytes(default_model_path().read_bytes()[:5000])
-    for model, message in ((foreign, "no format_version"), (pickled, "not an elastyle model"), (truncated, "not an elastyle model")):
+    for model, message in (
+        (foreign, "no format_version"),
+        (pickled, "not an elastyle model"),
+        (truncated, "not an elastyle model"),
+    ):
         result = _cli("transfer", walk, "--style", walk, "-o", str(tmp_path / "o.bvh"), "--model", str(model))
         assert result.returncode == 1 and message in result.stderr, result.stderr
         assert "Traceback" not in result.stderr
@@ -135,7 +153,12 @@ def test_skeleton_mismatches_list_the_joints(tmp_path: Path, dataset_clips: list
     tiny.write_text(GOOD)
     out = tmp_path / "o.bvh"
     as_style = _cli("transfer", walk, "--style", str(tiny), "-o", str(out))
-    assert as_style.returncode == 1 and "tiny.bvh" in as_style.stderr and "tiny.bvh: skeleton differs from the model" in as_style.stderr and "only in this clip: pelvis" in as_style.stderr
+    assert (
+        as_style.returncode == 1
+        and "tiny.bvh" in as_style.stderr
+        and "tiny.bvh: skeleton differs from the model" in as_style.stderr
+        and "only in this clip: pelvis" in as_style.stderr
+    )
     mixed = _cli("transfer", walk, "--style", walk, "--style", str(tiny), "-o", str(out))
     assert mixed.returncode == 1 and "only in the model: joint_Root" in mixed.stderr
     assert not out.exists()
@@ -198,7 +221,9 @@ Mutation = Callable[[list[str]], list[str]]
 def test_mutated_dataset_files_give_clean_errors(data: st.DataObject, walk_clip: ClipRef) -> None:
     text = _walk_text(walk_clip)
     lines = text.split("\n")
-    kind = data.draw(st.sampled_from(["truncate", "delete-token", "duplicate-token", "swap-lines", "random-bytes"]))
+    kind = data.draw(
+        st.sampled_from(["truncate", "delete-token", "duplicate-token", "swap-lines", "random-bytes"])
+    )
     if kind == "truncate":
         mutated = text[: data.draw(st.integers(0, len(text)))].encode()
     elif kind in ("delete-token", "duplicate-token"):
@@ -240,7 +265,9 @@ def _walk_text(clip: ClipRef) -> str:
 
 
 @pytest.mark.slow
-def test_same_transfer_is_byte_identical_across_processes(tmp_path: Path, dataset_clips: list[ClipRef]) -> None:
+def test_same_transfer_is_byte_identical_across_processes(
+    tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
     walk = clip_named(dataset_clips, "dataset-2_walk_normal_005").name
     style = clip_named(dataset_clips, "dataset-2_walk_active_010").name
     outputs = []

@@ -139,3 +139,11 @@ def test_same_input_gives_identical_output(model, content: Motion, style_clip: M
     first = transfer(content, style_clip, model).motion
     second = transfer(content, style_clip, model).motion
     np.testing.assert_array_equal(first.rotations, second.rotations)
+
+
+def test_content_timing_keeps_the_content_clock(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
+    out = transfer(content, style_clip, model, TransferConfig(timing="content")).motion
+    assert out.num_frames == content.num_frames
+    f_content, f_style = cadence_steps_s(content), cadence_steps_s(style_clip)
+    assert timing_error(cadence_steps_s(out), f_content, f_style) > 0.7
+    np.testing.assert_allclose(_path(out)[-1], _path(content)[-1], atol=15)

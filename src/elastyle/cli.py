@@ -147,6 +147,14 @@ def build_parser() -> argparse.ArgumentParser:
     from elastyle.cli_transfer import add_transfer_command
 
     add_transfer_command(commands)
+
+    from elastyle.cli_view import add_view_commands
+
+    add_view_commands(commands)
+
+    from elastyle.cli_eval import add_eval_commands
+
+    add_eval_commands(commands)
     return parser
 
 

@@ -23,10 +23,14 @@ def add_view_commands(commands: Any) -> None:
     )
     view.add_argument("clips", nargs="+", help="BVH files (or paths inside a zip archive)")
     view.add_argument(
-        "--port", type=int, help=f"port on 127.0.0.1 (default {DEFAULT_PORT}, or a free one if taken; 0 = any)"
+        "--port",
+        type=int,
+        help=f"port on 127.0.0.1 (default {DEFAULT_PORT}, or a free one if taken; 0 = any)",
     )
     view.add_argument("--no-browser", action="store_true", help="only serve and print the URL")
-    view.add_argument("--explain", help="JSON from `elastyle transfer --explain`: show each moment's style source")
+    view.add_argument(
+        "--explain", help="JSON from `elastyle transfer --explain`: show each moment's style source"
+    )
     view.set_defaults(run=run_view)
 
     render = commands.add_parser(

@@ -13,7 +13,7 @@ import math
 import os
 import re
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -82,7 +82,11 @@ def _grid_segments(centre: FloatArray, ground_y: float, spacing: float, radius: 
     lines = []
     for axis in (0, 2):
         other = 2 - axis
-        for k in range(math.floor((centre[axis] - radius) / spacing), math.ceil((centre[axis] + radius) / spacing) + 1):
+        first, last = (
+            math.floor((centre[axis] - radius) / spacing),
+            math.ceil((centre[axis] + radius) / spacing),
+        )
+        for k in range(first, last + 1):
             ends = np.zeros((2, 3))
             ends[:, axis] = k * spacing - centre[axis]
             ends[:, other] = (-radius, radius)
@@ -108,7 +112,9 @@ def _import_backends(mp4: bool) -> tuple[Any, Any, Any, Any, Any]:
         from matplotlib.figure import Figure
         from PIL import Image, ImageDraw
     except ImportError as error:
-        raise ElastyleError(f"rendering needs matplotlib and Pillow ({error.name} missing): {INSTALL_HINT}") from None
+        raise ElastyleError(
+            f"rendering needs matplotlib and Pillow ({error.name} missing): {INSTALL_HINT}"
+        ) from None
     if mp4:
         try:
             import imageio_ffmpeg  # noqa: F401
@@ -143,7 +149,9 @@ def render_clips(
     if not fps > 0:
         raise ElastyleError(f"render: --fps must be positive, got {fps}")
     if suffix == ".gif" and fps > MAX_GIF_FPS:
-        raise ElastyleError(f"{target}: GIF players slow down above {MAX_GIF_FPS:g} fps; lower --fps or write .mp4")
+        raise ElastyleError(
+            f"{target}: GIF players slow down above {MAX_GIF_FPS:g} fps; lower --fps or write .mp4"
+        )
     Figure, FigureCanvasAgg, LineCollection, Image, ImageDraw = _import_backends(suffix == ".mp4")
 
     # 1. Sample every clip at the output frame times; shorter clips hold their last frame.
@@ -156,83 +164,87 @@ def render_clips(
     spacing = grid_spacing(height)
 
     # 2. One figure, one axes per panel; artists are created once and updated per frame.
-    width_px, height_px = PANEL_PX[0] * len(motions), PANEL_PX[1]
-    dpi = 64
-    figure = Figure(figsize=(width_px / dpi, height_px / dpi), dpi=dpi, facecolor="white")
+    size = (PANEL_PX[0] * len(motions), PANEL_PX[1])
+    figure = Figure(figsize=(size[0] / 64, size[1] / 64), dpi=64, facecolor="white")
     canvas = FigureCanvasAgg(figure)
     panels = []
-    for index, (motion, label) in enumerate(zip(motions, labels)):
+    for index, motion in enumerate(motions):
         axes = figure.add_axes((index / len(motions), 0.0, 1 / len(motions), 1.0))
         axes.set_axis_off()
         axes.set_xlim(-0.6 * height, 0.6 * height)
         axes.set_ylim(-0.38 * height, 1.12 * height)
-        grid = LineCollection([], colors=GRID_COLOUR, linewidths=1.0)
-        axes.add_collection(grid)
+        grid = axes.add_collection(LineCollection([], colors=GRID_COLOUR, linewidths=1.0))
         (path_line,) = axes.plot([], [], color=PATH_COLOUR, linewidth=1.6)
         pairs = bones(motion.skeleton)
         colours = [SIDE_COLOURS[s] for s in joint_sides(motion.skeleton)[pairs[:, 1]]]
-        skeleton_lines = LineCollection([], colors=colours, linewidths=2.6, capstyle="round")
-        axes.add_collection(skeleton_lines)
-        pelvis = motion.skeleton.pelvis
-        path = positions[index][:, pelvis].copy()  # (N, 3) pelvis path, dropped onto the ground
+        lines = axes.add_collection(LineCollection([], colors=colours, linewidths=2.6, capstyle="round"))
+        path = positions[index][:, motion.skeleton.pelvis].copy()  # (N, 3) pelvis path, on the ground
         path[:, 1] = grounds[index]
-        panels.append((motion, grid, path_line, skeleton_lines, pairs, path))
+        panels.append((grid, path_line, lines, pairs, path))
     # Text through Pillow: matplotlib's text layout would cost two thirds of every frame.
     label_font, clock_font = _fonts()
-    names = [label if len(label) <= 34 else "..." + label[-31:] for label in labels]
+    header = Image.new("RGB", (size[0], 24), "white")  # the labels, drawn once
+    for index, label in enumerate(labels):
+        name = label if len(label) <= 34 else "..." + label[-31:]
+        ImageDraw.Draw(header).text(((index + 0.5) * PANEL_PX[0], 6), name, "black", label_font, "mt")
 
-    # 3. Draw each frame and hand it to the encoder.
-    frames: list[Any] = []
-    writer = None
-    temporary = tempfile.TemporaryDirectory(prefix="elastyle-render-")
+    def draw(frame: int) -> Any:
+        """The frame as a Pillow RGB image."""
+        for index, (grid, path_line, lines, pairs, path) in enumerate(panels):
+            centre = path[frame] * np.array([1.0, 0.0, 1.0])  # follow the pelvis horizontally
+            grid.set_segments(_grid_segments(path[frame], grounds[index], spacing, 2.5 * height))
+            traced = project(path[: frame + 1] - centre)  # (frame + 1, 2)
+            path_line.set_data(traced[:, 0], traced[:, 1])
+            lines.set_segments(project(positions[index][frame] - centre)[pairs])  # (B, 2, 2)
+        canvas.draw()
+        image = Image.frombuffer("RGBA", size, canvas.buffer_rgba(), "raw", "RGBA", 0, 1).convert("RGB")
+        image.paste(header, (0, 0))
+        pen = ImageDraw.Draw(image)
+        for index, motion in enumerate(motions):
+            own = min(int(round(times_s[frame] * motion.fps)), motion.num_frames - 1)
+            readout = f"t = {times_s[frame]:.2f} s  frame {own + 1}/{motion.num_frames}"
+            pen.text(((index + 0.5) * PANEL_PX[0], PANEL_PX[1] - 6), readout, "black", clock_font, "mb")
+            if index:
+                pen.line([(index * PANEL_PX[0], 0), (index * PANEL_PX[0], PANEL_PX[1])], "#999999", 1)
+        return image
+
+    # 3. Draw every frame into the encoder, then write the file in one atomic step.
+    images = (draw(frame) for frame in _progress(range(num_frames), progress, target.name))
     try:
-        if suffix == ".mp4":
-            import imageio_ffmpeg
-
-            movie = Path(temporary.name) / "render.mp4"
-            writer = imageio_ffmpeg.write_frames(str(movie), (width_px, height_px), fps=fps, quality=7,
-                                                 macro_block_size=16, ffmpeg_log_level="error")
-            writer.send(None)
-        palette = _palette(Image, ("#000000", GRID_COLOUR, PATH_COLOUR, *SIDE_COLOURS))
-        for frame in _progress(range(num_frames), progress, target.name):
-            for index, (_, grid, path_line, skeleton_lines, pairs, path) in enumerate(panels):
-                centre = path[frame] * np.array([1.0, 0.0, 1.0])  # follow the pelvis horizontally
-                grid.set_segments(_grid_segments(path[frame], grounds[index], spacing, 2.5 * height))
-                traced = project(path[: frame + 1] - centre)  # (frame + 1, 2)
-                path_line.set_data(traced[:, 0], traced[:, 1])
-                joints = project(positions[index][frame] - centre)  # (J, 2)
-                skeleton_lines.set_segments(joints[pairs])  # (B, 2, 2)
-            canvas.draw()
-            image = Image.fromarray(np.asarray(canvas.buffer_rgba())[..., :3])  # (H, W, 3) uint8
-            pen = ImageDraw.Draw(image)
-            for index, (motion, *_) in enumerate(panels):
-                middle = (index + 0.5) * PANEL_PX[0]
-                own = min(int(round(times_s[frame] * motion.fps)), motion.num_frames - 1)
-                pen.text((middle, 6), names[index], fill="black", font=label_font, anchor="mt")
-                readout = f"t = {times_s[frame]:.2f} s  frame {own + 1}/{motion.num_frames}"
-                pen.text((middle, PANEL_PX[1] - 6), readout, fill="black", font=clock_font, anchor="mb")
-            if writer is not None:
-                writer.send(image.tobytes())
-                continue
-            frames.append(image.quantize(palette=palette, dither=Image.Dither.NONE))
-        if writer is not None:
-            writer.close()
-            writer = None
-            data = movie.read_bytes()
-        else:
-            buffer = io.BytesIO()
-            frames[0].save(buffer, format="GIF", save_all=True, append_images=frames[1:], loop=0,
-                           duration=_gif_durations_ms(num_frames, fps), disposal=1, optimize=False)
-            data = buffer.getvalue()
+        data = _encode_mp4(images, size, fps) if suffix == ".mp4" else _encode_gif(images, fps, Image)
     except OSError as error:
         raise OutputError(f"{target}: rendering failed: {error}") from None
-    finally:
-        if writer is not None:
-            writer.close()
-        temporary.cleanup()
     write_bytes_atomic(target, data, force=force)
     log.debug("rendered %d frames to %s", num_frames, target)
     return num_frames
+
+
+def _encode_gif(images: Iterator[Any], fps: float, image_module: Any) -> bytes:
+    """Quantise every frame to one shared palette and pack them into a looping GIF."""
+    palette = _palette(image_module, ("#000000", "#999999", GRID_COLOUR, PATH_COLOUR, *SIDE_COLOURS))
+    frames = [image.quantize(palette=palette, dither=image_module.Dither.NONE) for image in images]
+    buffer = io.BytesIO()
+    delays = _gif_durations_ms(len(frames), fps)
+    frames[0].save(
+        buffer, "GIF", save_all=True, append_images=frames[1:], loop=0, duration=delays, disposal=1
+    )
+    return buffer.getvalue()
+
+
+def _encode_mp4(images: Iterator[Any], size: tuple[int, int], fps: float) -> bytes:
+    """H.264 through the ffmpeg binary of imageio-ffmpeg, via a scratch file (ffmpeg wants to seek)."""
+    import imageio_ffmpeg
+
+    with tempfile.TemporaryDirectory(prefix="elastyle-render-") as folder:
+        movie = Path(folder) / "render.mp4"
+        writer = imageio_ffmpeg.write_frames(str(movie), size, fps=fps, quality=7, ffmpeg_log_level="error")
+        writer.send(None)
+        try:
+            for image in images:
+                writer.send(image.tobytes())
+        finally:
+            writer.close()
+        return movie.read_bytes()
 
 
 def _gif_durations_ms(num_frames: int, fps: float) -> list[int]:

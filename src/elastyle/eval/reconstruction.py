@@ -9,18 +9,19 @@ from elastyle.model.file import StyleModel
 from elastyle.motion import Motion
 
 
-def reconstruct(model: StyleModel, motion: Motion) -> Motion:
+def reconstruct(model: StyleModel, motion: Motion, smooth_s: float = 0.0) -> Motion:
     """The clip through the autoencoder, on its own root path and timeline."""
     working = motion.resample(model.fps)
-    features, root = model.features.encode(working)
-    latents = model.autoencoder.encode(model.normalise(features))
-    decoded = model.denormalise(model.autoencoder.decode(latents).astype(np.float64))
+    latents, root = model.encode_motion(working)
+    decoded = model.decode_latents(latents, smooth_s)
     return model.features.decode(decoded, root, model.fps).resample(motion.fps)
 
 
-def reconstruction_report(model: StyleModel, motions: list[Motion]) -> dict[str, float]:
+def reconstruction_report(
+    model: StyleModel, motions: list[Motion], smooth_s: float = 0.0
+) -> dict[str, float]:
     """Mean over clips of the figures of `reconstruction_errors`, with skating as a ratio too."""
-    rows = [reconstruction_errors(m, reconstruct(model, m)) for m in motions]
+    rows = [reconstruction_errors(m, reconstruct(model, m, smooth_s)) for m in motions]
     report = {key: float(np.mean([r[key] for r in rows])) for key in rows[0]}
     report["skating_ratio"] = report["skating_cm_s"] / max(report["original_skating_cm_s"], 1e-9)
     return report

@@ -18,7 +18,8 @@ from typing import Any
 import numpy as np
 
 from elastyle.errors import ModelError
-from elastyle.features import FeatureSpec
+from elastyle.body import smooth
+from elastyle.features import FeatureSpec, RootPath
 from elastyle.io.files import write_bytes_atomic
 from elastyle.model.autoencoder import Autoencoder, AutoencoderWeights
 from elastyle.model.config import ModelConfig
@@ -55,6 +56,16 @@ class StyleModel:
 
     def denormalise(self, features: FloatArray) -> FloatArray:
         return features * self.feature_std + self.feature_mean
+
+    def encode_motion(self, motion: Motion) -> tuple[FloatArray, RootPath]:
+        """Latents (T, Z) and root path of a clip already at the model's frame rate."""
+        features, root = self.features.encode(motion)
+        return self.autoencoder.encode(self.normalise(features)).astype(np.float64), root
+
+    def decode_latents(self, latents: FloatArray, smooth_s: float = 0.0) -> FloatArray:
+        """Features (T, C) from latents (T, Z), low-passed along time by a Gaussian of `smooth_s` seconds."""
+        features = self.denormalise(self.autoencoder.decode(latents).astype(np.float64))
+        return smooth(features, smooth_s * self.fps)
 
     def check_clip(self, motion: Motion, what: str) -> None:
         self.skeleton.check_same(motion.skeleton, "the model", what)

@@ -16,7 +16,6 @@ from typing import Any
 import numpy as np
 
 from elastyle.errors import ClipTooShortError, ElastyleError, SkeletonMismatchError
-from elastyle.features import RootPath
 from elastyle.mirror import mirror
 from elastyle.model.file import StyleModel, load_model
 from elastyle.motion import Motion
@@ -29,6 +28,7 @@ log = logging.getLogger(__name__)
 
 METHODS = ("elastic", "rigid", "wct", "adain")
 PLACEMENTS = ("sequential", "fixed")
+TIMINGS = ("style", "content")
 GRID_STEP = 0.5  # content frames between evaluations of each style's result
 MIN_PATCH_FRAMES = 4
 
@@ -47,6 +47,8 @@ class TransferConfig:
     stretch: float = 0.25
     stretch_step_s: float = 4 / 60
     mirror_style: bool = True
+    smooth_s: float = 0.0  # Gaussian low-pass of the decoded features, seconds (0 = the report's raw output)
+    timing: str = "style"  # "content": warp the result back onto the content's timeline
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -55,6 +57,8 @@ class TransferConfig:
             raise ElastyleError(
                 f"unknown placement {self.placement!r}; choose one of {', '.join(PLACEMENTS)}"
             )
+        if self.timing not in TIMINGS:
+            raise ElastyleError(f"unknown timing {self.timing!r}; choose one of {', '.join(TIMINGS)}")
         if not 0 <= self.stretch < 1:
             raise ElastyleError(f"stretch must lie in [0, 1), got {self.stretch}")
         if self.patch_s <= 0:
@@ -106,12 +110,6 @@ class TransferResult:
     explain: dict[str, Any]
 
 
-def encode_latents(model: StyleModel, motion: Motion) -> tuple[FloatArray, RootPath]:
-    """Latents (T, Z) and root path of a clip already at the model's frame rate."""
-    features, root = model.features.encode(motion)
-    return model.autoencoder.encode(model.normalise(features)).astype(np.float64), root
-
-
 def prepare_style(
     model: StyleModel,
     motions: Sequence[Motion],
@@ -130,7 +128,7 @@ def prepare_style(
                 clips.append((name, True, mirror(motion)))
             except SkeletonMismatchError:
                 log.info("%s: no left/right pairs, style used without its mirror", name)
-    latents = [encode_latents(model, m)[0] for _, _, m in clips]
+    latents = [model.encode_motion(m)[0] for _, _, m in clips]
     starts = np.cumsum([0] + [z.shape[0] for z in latents[:-1]])
     return StyleLibrary(
         [c[0] for c in clips], [c[1] for c in clips], starts, np.concatenate(latents), LatentStats.of(latents)
@@ -241,7 +239,7 @@ def transfer(
     libraries = [_as_library(model, style, style_names, config)]
     if second_style is not None:
         libraries.append(_as_library(model, second_style, second_style_names, config))
-    content_latents, root = encode_latents(model, working)
+    content_latents, root = model.encode_motion(working)
     grid = np.arange(0, working.num_frames - 1 + 1e-9, GRID_STEP)  # (G,) content frames
     grid_s = grid / fps
     alpha = _as_schedule(strength, "strength").at(grid_s)
@@ -263,8 +261,13 @@ def transfer(
     content_time = np.interp(np.arange(num_output), output_time, grid)  # (T_out,) content frames
     grid_index = np.interp(content_time, grid, np.arange(len(grid)))
     output_latents = _interpolate_rows(latents, grid_index)
-    features = model.denormalise(model.autoencoder.decode(output_latents).astype(np.float64))
+    features = model.decode_latents(output_latents, config.smooth_s)
     decoded = model.features.decode(features, root.sample(content_time), fps)
+    if config.timing == "content":
+        # the style's manner on the content's clock: output frame of each content frame, by the inverse map
+        decoded = decoded.sample(
+            np.interp(np.arange(working.num_frames), content_time, np.arange(num_output))
+        )
     # the content's own skeleton (its offsets and End Sites), so the output drops into the content's rig
     motion = Motion(content.skeleton, decoded.rotations, decoded.translations, fps).resample(content.fps)
     explain = _explain(tracks, libraries, content_time, fps, config)

@@ -75,7 +75,9 @@ def read_explain(path: str | os.PathLike[str]) -> dict[str, Any]:
         raise ElastyleError(f"{path}: not a JSON explain file ({error})") from None
     styles = record.get("styles") if isinstance(record, dict) else None
     if not isinstance(styles, list):
-        raise ElastyleError(f"{path}: not an explain file (no 'styles' list; write one with transfer --explain)")
+        raise ElastyleError(
+            f"{path}: not an explain file (no 'styles' list; write one with transfer --explain)"
+        )
     tracks = []
     for style in styles:
         patches = style.get("patches") if isinstance(style, dict) else None
@@ -96,7 +98,7 @@ def make_server(payload: dict[str, Any], port: int = 0) -> ThreadingHTTPServer:
 
     class Handler(BaseHTTPRequestHandler):
         def do_GET(self) -> None:  # noqa: N802 (http.server's name)
-            bound = self.server.server_address[1]
+            bound = server_port(self.server)
             host = self.headers.get("Host")
             if host is not None and host not in (f"{HOST}:{bound}", f"localhost:{bound}"):
                 self._send(403, "text/plain", b"forbidden host\n")  # a rebound DNS name, not the user
@@ -129,14 +131,21 @@ def make_server(payload: dict[str, Any], port: int = 0) -> ThreadingHTTPServer:
         server = ThreadingHTTPServer((HOST, port), Handler)
     except OSError as error:
         if error.errno == errno.EADDRINUSE:
-            raise ElastyleError(f"{HOST}:{port} is in use; choose another --port (0 picks a free one)") from None
+            raise ElastyleError(
+                f"{HOST}:{port} is in use; choose another --port (0 picks a free one)"
+            ) from None
         raise ElastyleError(f"cannot serve on {HOST}:{port}: {error.strerror or error}") from None
     server.daemon_threads = True
     return server
 
 
+def server_port(server: Any) -> int:
+    """The port a server bound (useful after asking for port 0)."""
+    return int(server.server_address[1])
+
+
 def server_url(server: ThreadingHTTPServer) -> str:
-    return f"http://{HOST}:{server.server_address[1]}/"
+    return f"http://{HOST}:{server_port(server)}/"
 
 
 PAGE = r"""<!doctype html>
@@ -171,8 +180,10 @@ html,body{margin:0;height:100%;font:13px system-ui,sans-serif;background:#f7f7f5
 </div><canvas id="strip" height="14"></canvas></div>
 <script>
 "use strict";
-const PALETTES = [["#222222", "#1f6fd1", "#d1431f"], ["#3b2470", "#7b4fd8", "#e08a1e"],
-  ["#0d5c4a", "#14a38b", "#c23b7a"], ["#5c3a0d", "#b8860b", "#4169e1"], ["#444444", "#2e8b57", "#b22222"]];
+// Per clip: centre, left and right bones, then its root path.
+const PALETTES = [["#222222", "#1f6fd1", "#d1431f", "#2a9d55"], ["#3b2470", "#7b4fd8", "#e08a1e", "#b07cc6"],
+  ["#0d5c4a", "#14a38b", "#c23b7a", "#5fb3a1"], ["#5c3a0d", "#b8860b", "#4169e1", "#c9a227"],
+  ["#444444", "#2e8b57", "#b22222", "#999999"]];
 const $ = (id) => document.getElementById(id);
 const view = $("view"), ctx = view.getContext("2d"), strip = $("strip"), sctx = strip.getContext("2d");
 const S = {t: 0, playing: true, speed: 1, yaw: 0.3, pitch: 0.25, zoom: 1, last: null, drag: null};
@@ -204,6 +215,13 @@ function init(data) {
     text.id = "clip" + i; row.append(sw, text); $("legend").append(row);
   }
   if (D.explain) $("explain").style.display = "block"; else strip.style.display = "none";
+  // Page options for links and tests: ?overlay=1&follow=0&t=SECONDS&paused=1&speed=0.5
+  const q = new URLSearchParams(location.search);
+  if (q.has("overlay")) $("overlay").checked = q.get("overlay") === "1";
+  if (q.has("follow")) $("follow").checked = q.get("follow") !== "0";
+  if (q.has("t")) S.t = clamp(Number(q.get("t")) || 0, 0, D.duration);
+  if (q.has("speed")) { S.speed = Number(q.get("speed")) || 1; $("speed").value = String(S.speed); }
+  if (q.get("paused") === "1") setPlaying(false);
   window.addEventListener("resize", resize); resize(); draw();
   document.body.dataset.ready = "1";
   requestAnimationFrame(tick);
@@ -218,7 +236,7 @@ function resize() {
 // Lanes: side by side each clip has its own lane; overlaid, one lane holds all (their world offsets kept).
 function lanes() {
   const H = D.height, overlay = $("overlay").checked, follow = $("follow").checked;
-  const R = (overlay ? 1.3 : 0.85) * H, gap = 0.3 * H;
+  const R = (overlay ? 1.3 : 0.75) * H, gap = 0.25 * H;
   const groups = overlay ? [D.clips.map((_, i) => i)] : D.clips.map((_, i) => [i]);
   const out = []; let x = 0;
   for (const g of groups) {
@@ -254,7 +272,10 @@ function proj(C, p) {
 function seg(C, a, b) {  // a line segment, cut at the near plane
   const za = depth(C, a), zb = depth(C, b);
   if (za < C.near && zb < C.near) return;
-  const cut = (p, q, zp, zq) => { const s = (C.near - zp) / (zq - zp); return [p[0] + s * (q[0] - p[0]), p[1] + s * (q[1] - p[1]), p[2] + s * (q[2] - p[2])]; };
+  const cut = (p, q, zp, zq) => {
+    const s = (C.near - zp) / (zq - zp);
+    return [p[0] + s * (q[0] - p[0]), p[1] + s * (q[1] - p[1]), p[2] + s * (q[2] - p[2])];
+  };
   if (za < C.near) a = cut(a, b, za, zb); else if (zb < C.near) b = cut(b, a, zb, za);
   const pa = proj(C, a), pb = proj(C, b); ctx.moveTo(pa[0], pa[1]); ctx.lineTo(pb[0], pb[1]);
 }
@@ -276,15 +297,19 @@ function draw() {
   ctx.strokeStyle = "#cfcfca"; ctx.lineWidth = 1; ctx.beginPath();
   for (const l of L.lanes) {
     const [x0, x1, z0, z1] = l.ext;
-    for (let k = Math.ceil((x0 + l.ax) / s); k * s - l.ax <= x1; k++) seg(C, [k * s - l.ax + l.ox, 0, z0], [k * s - l.ax + l.ox, 0, z1]);
-    for (let k = Math.ceil((z0 + l.az) / s); k * s - l.az <= z1; k++) seg(C, [x0 + l.ox, 0, k * s - l.az], [x1 + l.ox, 0, k * s - l.az]);
+    for (let k = Math.ceil((x0 + l.ax) / s); k * s - l.ax <= x1; k++) {
+      const x = k * s - l.ax + l.ox; seg(C, [x, 0, z0], [x, 0, z1]);
+    }
+    for (let k = Math.ceil((z0 + l.az) / s); k * s - l.az <= z1; k++) {
+      const z = k * s - l.az; seg(C, [x0 + l.ox, 0, z], [x1 + l.ox, 0, z]);
+    }
   }
   ctx.stroke();
   ctx.lineCap = "round"; ctx.textAlign = "center"; ctx.font = "13px system-ui,sans-serif";
   for (const l of L.lanes) for (const [n, i] of l.g.entries()) {
     const c = D.clips[i], f = frameOf(c), place = (q) => [q[0] - l.ax + l.ox, q[1] - l.ground, q[2] - l.az];
     pathLine(C, l, c, c.num_frames - 1, "rgba(0,0,0,0.12)", 1.5);
-    pathLine(C, l, c, f, c.palette[1], 2);
+    pathLine(C, l, c, f, c.palette[3], 2);
     for (const [a, b] of c.bones) {
       ctx.strokeStyle = c.palette[c.sides[b]]; ctx.lineWidth = 3; ctx.beginPath();
       seg(C, place(joint(c, f, a)), place(joint(c, f, b))); ctx.stroke();
@@ -314,7 +339,8 @@ function drawExplain() {
     track.patches.forEach((p, n) => {
       const end = n + 1 < track.patches.length ? track.patches[n + 1].output_start_s : D.duration;
       sctx.fillStyle = `hsl(${hue(p.style_clip)},55%,${p.style_mirrored ? 45 : 65}%)`;
-      sctx.fillRect(w * p.output_start_s / D.duration, k * rh, Math.max(1, w * (end - p.output_start_s) / D.duration) - 1, rh - 1);
+      const x0 = w * p.output_start_s / D.duration, x1 = w * end / D.duration;
+      sctx.fillRect(x0, k * rh, Math.max(1, x1 - x0 - 1), rh - 1);
     });
     const p = currentPatch(track);
     if (!p) { lines.push(`style ${k + 1}: (before the first patch)`); return; }
@@ -351,7 +377,9 @@ view.addEventListener("pointermove", (e) => {
   S.yaw -= (e.clientX - S.drag[0]) * 0.008; S.pitch = clamp(S.pitch + (e.clientY - S.drag[1]) * 0.008, -0.2, 1.5);
   S.drag = [e.clientX, e.clientY];
 });
-view.addEventListener("wheel", (e) => { e.preventDefault(); S.zoom = clamp(S.zoom * Math.exp(e.deltaY * 0.001), 0.05, 20); }, {passive: false});
+view.addEventListener("wheel", (e) => {
+  e.preventDefault(); S.zoom = clamp(S.zoom * Math.exp(e.deltaY * 0.001), 0.05, 20);
+}, {passive: false});
 window.addEventListener("keydown", (e) => {
   if (!D || ["INPUT", "SELECT", "BUTTON"].includes(e.target.tagName)) return;
   if (e.key === " ") { e.preventDefault(); setPlaying(!S.playing); }

@@ -1,0 +1,192 @@
+"""Speed against the machine's own limit, on one core (issue: speed). Prints ratios measured in one run.
+
+    python benchmarks/speed.py [--quick]
+
+Cases: 10 s content x 10 s style; 60 s content x a 10-minute style library (dataset walks), each with
+the report's 4-frame stretch step (2 frames at 30 fps) and with every frame. For each: transfer time
+(no file I/O; the style library encoded beforehand), search time, a plain float32 matmul of the
+search's shape in the same run and their ratio, the search's GFLOP/s, and peak memory. Then BVH
+read/write throughput, the library cache's speed-up, and the CLI's wall time against Python's start-up
+with numpy and scipy.
+"""
+
+from __future__ import annotations
+
+import os
+
+for variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[variable] = "1"
+
+import argparse  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+import tracemalloc  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from elastyle.io.bvh import bvh_text, parse_bvh  # noqa: E402
+from elastyle.io.dataset import default_data_path, find_clips  # noqa: E402
+from elastyle.model.file import load_model  # noqa: E402
+from elastyle.motion import Motion  # noqa: E402
+from elastyle.transfer import elastic  # noqa: E402
+from elastyle.transfer.stylize import TransferConfig, prepare_style, transfer  # noqa: E402
+
+
+def best_of(function, repeats: int = 5) -> float:  # type: ignore[no-untyped-def]
+    times = []
+    for _ in range(repeats):
+        started = time.perf_counter()
+        function()
+        times.append(time.perf_counter() - started)
+    return min(times)
+
+
+def concatenate(motions: list[Motion], seconds: float) -> Motion:
+    """Clips end to end up to `seconds` (a long content clip)."""
+    frames = int(seconds * motions[0].fps)
+    rotations = np.concatenate([m.rotations for m in motions])[:frames]
+    translations = np.concatenate([m.translations for m in motions])[:frames]
+    return Motion(motions[0].skeleton, rotations, translations, motions[0].fps)
+
+
+class SearchTimer:
+    """Wraps StyleWindows.best to add up search time and the shapes it multiplied."""
+
+    def __init__(self) -> None:
+        self.seconds = 0.0
+        self.shapes: list[tuple[int, int, int]] = []
+        self.original = elastic.StyleWindows.best
+
+    def __enter__(self) -> SearchTimer:
+        timer = self
+
+        def timed(windows, queries):  # type: ignore[no-untyped-def]
+            started = time.perf_counter()
+            result = timer.original(windows, queries)
+            timer.seconds += time.perf_counter() - started
+            timer.shapes.append((queries.shape[0], windows.unit.shape[1], windows.unit.shape[0]))
+            return result
+
+        elastic.StyleWindows.best = timed  # type: ignore[method-assign]
+        return self
+
+    def __exit__(self, *args: object) -> None:
+        elastic.StyleWindows.best = self.original  # type: ignore[method-assign]
+
+
+def plain_matmul_s(rows: int, inner: int, columns: int) -> float:
+    a = np.random.default_rng(0).standard_normal((rows, inner), dtype=np.float32)
+    b = np.random.default_rng(1).standard_normal((columns, inner), dtype=np.float32)
+    return best_of(lambda: a @ b.T, 3)
+
+
+def run_case(name: str, model, content: Motion, style_motions: list[Motion], step_s: float) -> None:  # type: ignore[no-untyped-def]
+    config = TransferConfig(stretch_step_s=step_s)
+    library = prepare_style(model, style_motions)
+    transfer(content, library, model, config)  # warm the window cache
+    total_s = best_of(lambda: transfer(content, library, model, config), 3)
+    with SearchTimer() as timer:
+        transfer(content, library, model, config)
+    rows = sum(s[0] for s in timer.shapes)
+    inner, columns = timer.shapes[0][1], timer.shapes[0][2]
+    matmul_s = plain_matmul_s(rows, inner, columns)
+    flops = 2.0 * rows * inner * columns
+    tracemalloc.start()
+    transfer(content, library, model, config)
+    peak_mb = tracemalloc.get_traced_memory()[1] / 1e6
+    tracemalloc.stop()
+    print(
+        f"{name:<34} transfer {1000 * total_s:8.1f} ms | search {1000 * timer.seconds:7.1f} ms, "
+        f"matmul {rows}x{inner}x{columns} {1000 * matmul_s:7.1f} ms, ratio {timer.seconds / matmul_s:5.2f}, "
+        f"{flops / timer.seconds / 1e9:6.1f} GFLOP/s | peak {peak_mb:6.0f} MB"
+    )
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--data", default=str(default_data_path() or ""))
+    parser.add_argument("--quick", action="store_true", help="small version: 10 s cases only, fewer files")
+    args = parser.parse_args()
+    model = load_model()
+    walks = [c.read()[0] for c in find_clips([args.data], pattern="*_walk_*")[:: 2 if args.quick else 1]]
+    neutral = [m for m in walks][:20]
+    content_10 = concatenate(neutral, 10)
+    style_10 = concatenate(walks[40:50], 10)
+    gemm_s = plain_matmul_s(1024, 1024, 1024)
+    print(
+        f"one core; 1024^3 float32 matmul {1000 * gemm_s:.1f} ms ({2 * 1024**3 / gemm_s / 1e9:.0f} GFLOP/s)"
+    )
+    for step_s, label in ((4 / 60, "report step"), (0.0, "1-frame")):
+        run_case(f"10 s x 10 s, {label}", model, content_10, [style_10], step_s)
+    config = TransferConfig()
+    library = prepare_style(model, [style_10])
+    whole = best_of(lambda: transfer(content_10, library, model, config), 5)
+    print(f"10 s x 10 s transfer / half a 1024^3 matmul: {whole / (gemm_s / 2):.2f} (target <= 1)")
+    if not args.quick:
+        long_content = concatenate(walks[:60], 60)
+        library_clips = walks[60:]
+        total = 0
+        chosen = []
+        for motion in library_clips:
+            chosen.append(motion)
+            total += motion.num_frames
+            if total >= 600 * motion.fps:
+                break
+        for step_s, label in ((4 / 60, "report step"), (0.0, "1-frame")):
+            run_case(f"60 s x 10 min library, {label}", model, long_content, chosen, step_s)
+        encode_s = best_of(lambda: prepare_style(model, chosen), 1)
+        cached = prepare_style(model, chosen)
+        with_cache = best_of(lambda: transfer(content_10, cached, model, config), 3)
+        print(
+            f"10 s content x 10 min library: encoding the library {1000 * encode_s:.0f} ms, transfer with it "
+            f"cached {1000 * with_cache:.0f} ms (speed-up {(encode_s + with_cache) / with_cache:.1f}x)"
+        )
+    # BVH throughput
+    clips = find_clips([args.data])[:: 20 if args.quick else 1]
+    raw = [(c.name, _raw_bytes(c)) for c in clips]
+    started = time.perf_counter()
+    parsed = [parse_bvh(data, name) for name, data in raw]
+    read_s = time.perf_counter() - started
+    frames = sum(m.num_frames for m, _ in parsed)
+    started = time.perf_counter()
+    texts = [bvh_text(m, layout) for m, layout in parsed]
+    write_s = time.perf_counter() - started
+    worst = max(
+        float(np.abs(parse_bvh(t.encode(), "again")[0].positions() - m.positions()).max())
+        for t, (m, _) in zip(texts, parsed)
+    )
+    print(
+        f"BVH: {len(raw)} files, {frames} frames: read {frames / read_s:,.0f} frames/s, write {frames / write_s:,.0f} "
+        f"frames/s; read-write-read FK error max {worst:.2e} units"
+    )
+    # CLI wall time against Python start-up with numpy and scipy
+    with tempfile.TemporaryDirectory() as folder:
+        content_path, style_path = Path(folder) / "c.bvh", Path(folder) / "s.bvh"
+        content_path.write_text(bvh_text(content_10))
+        style_path.write_text(bvh_text(style_10))
+        baseline = best_of(
+            lambda: subprocess.run([sys.executable, "-c", "import numpy, scipy"], check=True), 3
+        )
+        command = [sys.executable, "-m", "elastyle.cli", "transfer", str(content_path), "--style", str(style_path),
+                   "-o", str(Path(folder) / "o.bvh"), "--force"]  # fmt: skip
+        cli = best_of(lambda: subprocess.run(command, check=True, capture_output=True), 3)
+        print(f"CLI 10 s x 10 s: {1000 * cli:.0f} ms; python -c 'import numpy, scipy': {1000 * baseline:.0f} ms; "
+              f"ratio {cli / baseline:.2f} (target <= 2)")  # fmt: skip
+    return 0
+
+
+def _raw_bytes(clip) -> bytes:  # type: ignore[no-untyped-def]
+    if clip.archive is None:
+        return Path(clip.name).read_bytes()
+    from elastyle.io.dataset import _open_zip
+
+    return _open_zip(clip.archive, os.getpid()).read(clip.member)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,137 @@
+"""`elastyle eval` (figures of one transfer, or the benchmark) and `elastyle demo` (the first run)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+from pathlib import Path
+from typing import Any
+
+from elastyle.errors import DatasetError, ElastyleError, UsageError
+
+log = logging.getLogger("elastyle")
+
+DEMO_CONTENT = "dataset-2_walk_normal_005"
+DEMO_STYLES = ("dataset-2_walk_exhausted_005", "dataset-2_walk_active_010", "dataset-2_walk_masculine_010")
+
+
+def add_eval_commands(commands: Any) -> None:
+    evaluate = commands.add_parser("eval", help="figures of a transfer, or the benchmark over dataset pairs")
+    evaluate.add_argument("output", nargs="?", help="a transfer's output BVH")
+    evaluate.add_argument("--content", help="the content clip of that transfer")
+    evaluate.add_argument("--style", help="the style clip of that transfer")
+    evaluate.add_argument(
+        "--benchmark", metavar="DATA", help="run the benchmark on the dataset (zip or folder)"
+    )
+    evaluate.add_argument("--pairs", type=int, default=24, help="benchmark pairs (default 24)")
+    evaluate.add_argument("--model", help="model file (default: the shipped model)")
+    evaluate.add_argument("--out", help="folder for benchmark.json and benchmark.md")
+    evaluate.add_argument("--json", action="store_true", help="print figures as JSON")
+    evaluate.add_argument("--force", action="store_true")
+    evaluate.set_defaults(run=run_eval)
+
+    demo = commands.add_parser("demo", help="a neutral walk in three contrasting styles, with figures")
+    demo.add_argument("--data", help="the dataset zip or folder (default: $ELASTYLE_DATA or ../shared/data)")
+    demo.add_argument(
+        "-o", "--output", default="elastyle-demo", help="folder to write (default elastyle-demo)"
+    )
+    demo.add_argument("--no-render", action="store_true", help="skip the side-by-side GIF")
+    demo.add_argument("--force", action="store_true", help="overwrite files in the folder")
+    demo.set_defaults(run=run_demo)
+
+
+def run_eval(args: argparse.Namespace) -> int:
+    from elastyle.io.dataset import read_clip
+    from elastyle.model.file import load_model
+
+    if args.benchmark:
+        from elastyle.eval.suite import markdown_table, run_benchmark
+        from elastyle.io.files import write_text_atomic
+
+        model = load_model(args.model)
+        report = run_benchmark(args.benchmark, model, args.pairs)
+        table = markdown_table(report)
+        print(table)
+        if args.out:
+            folder = Path(args.out)
+            folder.mkdir(parents=True, exist_ok=True)
+            write_text_atomic(folder / "benchmark.json", json.dumps(report, indent=1), force=args.force)
+            write_text_atomic(folder / "benchmark.md", table, force=args.force)
+        return 0
+    if not (args.output and args.content and args.style):
+        raise UsageError("give OUT.bvh --content C.bvh --style S.bvh, or --benchmark DATA")
+    from elastyle.eval.report import transfer_figures
+
+    figures = transfer_figures(
+        read_clip(args.output)[0], read_clip(args.content)[0], read_clip(args.style)[0]
+    )
+    _print_figures(figures, args.json)
+    return 0
+
+
+def _print_figures(figures: dict[str, float], as_json: bool) -> None:
+    if as_json:
+        print(json.dumps(figures, indent=1))
+        return
+    for key, value in figures.items():
+        print(f"  {key:<28}{value:>10.3f}")
+
+
+def run_demo(args: argparse.Namespace) -> int:
+    from elastyle.eval.report import transfer_figures
+    from elastyle.io.bvh import write_bvh
+    from elastyle.io.dataset import PUBLIC_DATASET_HINT, default_data_path, find_clips
+    from elastyle.io.files import write_text_atomic
+    from elastyle.model.file import load_model
+    from elastyle.transfer.stylize import TransferConfig, prepare_style, transfer
+
+    data = args.data or default_data_path()
+    if data is None or not Path(data).exists():
+        raise DatasetError(f"no dataset found ({data or 'nothing configured'}): {PUBLIC_DATASET_HINT}")
+    clips = {c.stem: c for c in find_clips([str(data)], pattern="*_walk_*")}
+    missing = [stem for stem in (DEMO_CONTENT, *DEMO_STYLES) if stem not in clips]
+    if missing:
+        raise DatasetError(
+            f"{data}: demo clips missing ({', '.join(missing)}); is it the Bandai Namco dataset 2?"
+        )
+    folder = Path(args.output)
+    folder.mkdir(parents=True, exist_ok=True)
+    model = load_model()
+    content, layout = clips[DEMO_CONTENT].read()
+    print(f"content: {DEMO_CONTENT}  ->  {folder}/")
+    rendered = [content]
+    labels = [DEMO_CONTENT + " (content)"]
+    for stem in DEMO_STYLES:
+        style = clips[stem].read()[0]
+        library = prepare_style(model, [style], [clips[stem].name])
+        style_name = stem.split("_")[2]
+        for method in ("elastic", "rigid"):
+            result = transfer(content, library, model, TransferConfig(method=method))
+            base = folder / f"{style_name}_{method}"
+            write_bvh(base.with_suffix(".bvh"), result.motion, layout, force=args.force)
+            write_text_atomic(
+                base.with_suffix(".json"), json.dumps(result.explain, indent=1), force=args.force
+            )
+            figures = transfer_figures(result.motion, content, style)
+            print(
+                f"  {style_name:<10} {method:<8} cadence {figures['cadence_content_steps_s']:.2f} -> "
+                f"{figures['cadence_output_steps_s']:.2f} (style {figures['cadence_style_steps_s']:.2f}) steps/s, "
+                f"timing error {figures['timing_error']:.2f}, skating {figures['skating_output_cm_s']:.1f} cm/s, "
+                f"jitter x{figures['jitter_vs_content']:.2f}"
+            )
+            if method == "elastic" and style_name == "exhausted":
+                rendered += [style, result.motion]
+                labels += [stem + " (style)", f"{style_name} elastic"]
+            if method == "rigid" and style_name == "exhausted":
+                rendered.append(result.motion)
+                labels.append(f"{style_name} rigid")
+    if not args.no_render:
+        try:
+            from elastyle.render import render_clips
+
+            render_clips(rendered, labels, folder / "exhausted.gif", force=args.force, progress=False)
+            print(f"  side by side: {folder / 'exhausted.gif'}")
+        except ElastyleError as error:  # rendering is an extra: the BVHs and figures stand without it
+            log.info("no GIF: %s", error)
+    return 0

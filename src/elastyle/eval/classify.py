@@ -1,0 +1,50 @@
+"""Style and content recognition: ridge classifiers on clip descriptors, trained on real dataset clips.
+
+A clip's descriptor is the mean and standard deviation over time of its pose features (joint rotations
+relative to the model's references, pelvis sway and height) plus its cadence and arm-swing frequency.
+The classifier is one-vs-rest ridge regression on standardised descriptors: small, deterministic, numpy.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from elastyle.eval.metrics import arm_swing_hz, cadence_steps_s
+from elastyle.features import FeatureSpec
+from elastyle.motion import Motion
+from elastyle.types import FloatArray
+
+
+def describe(motion: Motion, spec: FeatureSpec) -> FloatArray:
+    """Descriptor (2C + 2,) of a clip."""
+    features, _ = spec.encode(motion)
+    rhythm = np.nan_to_num([cadence_steps_s(motion), arm_swing_hz(motion)])
+    return np.concatenate([features.mean(axis=0), features.std(axis=0), rhythm])
+
+
+@dataclass(frozen=True, eq=False)
+class RidgeClassifier:
+    labels: tuple[str, ...]
+    mean: FloatArray
+    scale: FloatArray
+    weights: FloatArray  # (D + 1, K)
+
+    @staticmethod
+    def fit(descriptors: FloatArray, labels: Sequence[str], ridge: float = 1.0) -> RidgeClassifier:
+        classes = tuple(sorted(set(labels)))
+        mean = descriptors.mean(axis=0)
+        scale = np.maximum(descriptors.std(axis=0), 1e-6)
+        x = np.hstack([(descriptors - mean) / scale, np.ones((len(descriptors), 1))])
+        targets = np.array([[1.0 if label == c else -1.0 for c in classes] for label in labels])
+        weights = np.linalg.solve(x.T @ x + ridge * np.eye(x.shape[1]), x.T @ targets)
+        return RidgeClassifier(classes, mean, scale, weights)
+
+    def predict(self, descriptors: FloatArray) -> list[str]:
+        x = np.hstack([(descriptors - self.mean) / self.scale, np.ones((len(descriptors), 1))])
+        return [self.labels[i] for i in np.argmax(x @ self.weights, axis=1)]
+
+    def accuracy(self, descriptors: FloatArray, labels: Sequence[str]) -> float:
+        return float(np.mean([p == t for p, t in zip(self.predict(descriptors), labels)]))

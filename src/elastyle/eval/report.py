@@ -1,0 +1,50 @@
+"""Figures of one transfer (`elastyle eval OUT --content C --style S`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from elastyle.eval.metrics import (
+    arm_swing_hz,
+    cadence_steps_s,
+    centimetres_per_unit,
+    foot_skating_cm_s,
+    jerk,
+    timing_error,
+)
+from elastyle.motion import Motion
+
+
+def bone_length_error_cm(motion: Motion, reference: Motion) -> float:
+    """Largest difference (cm) between a bone's length in `motion` and in `reference` (first frames)."""
+    parents = motion.skeleton.parents
+    children = np.flatnonzero(parents >= 0)
+    ours = motion.positions()
+    theirs = reference.positions()[:1]
+    length = np.linalg.norm(ours[:, children] - ours[:, parents[children]], axis=-1)  # (T, J-1)
+    expected = np.linalg.norm(theirs[:, children] - theirs[:, parents[children]], axis=-1)
+    # the pelvis's own translation is animated: leave out bones from joints above it
+    keep = children > motion.skeleton.pelvis
+    return float(np.abs(length - expected)[:, keep].max() * centimetres_per_unit(motion.skeleton))
+
+
+def transfer_figures(output: Motion, content: Motion, style: Motion) -> dict[str, float]:
+    positions = {
+        name: m.positions() for name, m in (("output", output), ("content", content), ("style", style))
+    }
+    cadence = {
+        name: cadence_steps_s(m, positions[name])
+        for name, m in (("output", output), ("content", content), ("style", style))
+    }
+    figures = {f"cadence_{name}_steps_s": value for name, value in cadence.items()}
+    figures["timing_error"] = timing_error(cadence["output"], cadence["content"], cadence["style"])
+    for name, motion in (("output", output), ("content", content), ("style", style)):
+        figures[f"arm_swing_{name}_hz"] = arm_swing_hz(motion, positions[name])
+        figures[f"skating_{name}_cm_s"] = foot_skating_cm_s(motion, positions[name])
+    figures["jitter_vs_content"] = jerk(positions["output"], output.fps) / max(
+        jerk(positions["content"], content.fps), 1e-9
+    )
+    figures["bone_length_error_cm"] = bone_length_error_cm(output, content)
+    figures["duration_output_s"] = output.duration_s
+    figures["duration_content_s"] = content.duration_s
+    return figures

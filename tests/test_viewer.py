@@ -1,0 +1,243 @@
+"""The web viewer: payload and explain files, the server on 127.0.0.1, `elastyle view`, and a headless browser."""
+
+from __future__ import annotations
+
+import json
+import re
+import select
+import subprocess
+import sys
+import threading
+import urllib.error
+import urllib.request
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from elastyle.errors import ElastyleError
+from elastyle.io.bvh import read_bvh
+from elastyle.io.dataset import ClipRef
+from elastyle.viewer.app import build_payload, make_server, read_explain, server_url
+from tests.conftest import clip_named
+
+CHROMIUM = Path("/usr/bin/chromium")
+WINDOW = (1200, 700)  # browser window; the bottom 60 px hold the controls
+STYLE_CLIP = "dataset-2_walk_exhausted_005"
+# The `view` command as `elastyle view` runs it, without depending on cli.py registering it.
+VIEW_HARNESS = """
+import argparse, sys
+from elastyle.cli_view import add_view_commands
+from elastyle.errors import ElastyleError
+parser = argparse.ArgumentParser(prog="elastyle")
+add_view_commands(parser.add_subparsers(dest="command", required=True))
+args = parser.parse_args(sys.argv[1:])
+try:
+    sys.exit(args.run(args))
+except ElastyleError as error:  # what cli.main does with it
+    sys.exit(f"elastyle: error: {error}")
+"""
+_LOCAL = urllib.request.build_opener(urllib.request.ProxyHandler({}))  # never through a proxy
+
+
+def fetch(url: str, host: str | None = None) -> tuple[int, str, bytes]:
+    """Status, content type and body of a GET request."""
+    request = urllib.request.Request(url, headers={"Host": host} if host else {})
+    try:
+        with _LOCAL.open(request, timeout=10) as response:
+            return response.status, response.headers.get("Content-Type", ""), response.read()
+    except urllib.error.HTTPError as error:
+        return error.code, error.headers.get("Content-Type", ""), b""
+
+
+@pytest.fixture
+def serve() -> Iterator[Callable[[dict[str, Any]], str]]:
+    """Start a viewer server in a thread on a free port; returns its URL; stopped after the test."""
+    started = []
+
+    def start(payload: dict[str, Any]) -> str:
+        server = make_server(payload, 0)
+        thread = threading.Thread(target=server.serve_forever, daemon=True)
+        thread.start()
+        started.append((server, thread))
+        return server_url(server)
+
+    yield start
+    for server, thread in started:
+        server.shutdown()
+        server.server_close()
+        thread.join(timeout=5)
+
+
+def write_explain(path: Path, style_clip: str) -> Path:
+    patches = [
+        {
+            "output_start_s": 1.0,
+            "style_clip": style_clip,
+            "style_mirrored": True,
+            "style_start_frame": 40,
+            "style_frames": 30,
+            "stretch": 1.1,
+            "similarity": 0.5,
+            "content_start_s": 1.0,
+        },
+        {
+            "output_start_s": 0.0,
+            "style_clip": style_clip,
+            "style_mirrored": False,
+            "style_start_frame": 68,
+            "style_frames": 30,
+            "stretch": 1.0,
+            "similarity": 0.3,
+        },
+    ]
+    path.write_text(
+        json.dumps({"method": "elastic", "styles": [{"clips": [style_clip], "patches": patches}]})
+    )
+    return path
+
+
+def test_payload_holds_positions_bones_and_sides(three_channel_bvh: Path) -> None:
+    motion, _ = read_bvh(three_channel_bvh)
+    payload = json.loads(json.dumps(build_payload([motion], ["tiny.bvh"])))
+    clip = payload["clips"][0]
+    assert clip["label"] == "tiny.bvh" and clip["num_frames"] == 3 and clip["pelvis"] == 0
+    assert clip["bones"] == [[0, 1], [0, 2], [2, 3], [0, 4], [4, 5]]
+    assert clip["sides"] == [0, 0, 1, 1, 2, 2]
+    positions = np.reshape(clip["positions"], (3, 6, 3))  # (T, J, 3)
+    np.testing.assert_allclose(positions, motion.positions(), atol=0.01)
+    assert clip["ground"] == pytest.approx(10.0) and payload["height"] == pytest.approx(20.0)
+    assert payload["explain"] is None
+
+
+def test_explain_file_is_checked_and_sorted(tmp_path: Path) -> None:
+    explain = read_explain(write_explain(tmp_path / "explain.json", "style.bvh"))
+    starts = [p["output_start_s"] for p in explain["styles"][0]["patches"]]
+    assert starts == [0.0, 1.0] and explain["source"] == "explain.json"
+    assert "content_start_s" not in explain["styles"][0]["patches"][1]
+    (tmp_path / "bad.json").write_text("{not json")
+    with pytest.raises(ElastyleError, match=r"bad\.json: not a JSON explain file"):
+        read_explain(tmp_path / "bad.json")
+    (tmp_path / "other.json").write_text('{"frames": 3}')
+    with pytest.raises(ElastyleError, match=r"other\.json: not an explain file"):
+        read_explain(tmp_path / "other.json")
+    (tmp_path / "short.json").write_text('{"styles": [{"patches": [{"output_start_s": 0}]}]}')
+    with pytest.raises(ElastyleError, match=r"short\.json: a patch lacks .*style_clip"):
+        read_explain(tmp_path / "short.json")
+    with pytest.raises(ElastyleError, match=r"missing\.json: cannot read"):
+        read_explain(tmp_path / "missing.json")
+
+
+def test_server_serves_page_and_json_on_loopback_only(
+    three_channel_bvh: Path, serve: Callable[[dict[str, Any]], str]
+) -> None:
+    motion, _ = read_bvh(three_channel_bvh)
+    url = serve(build_payload([motion], ["tiny.bvh"]))
+    assert url.startswith("http://127.0.0.1:")
+    status, kind, page = fetch(url)
+    assert status == 200 and kind.startswith("text/html")
+    assert b"<canvas" in page and b'fetch("clips.json")' in page
+    assert not re.search(
+        rb"https?://|//cdn|<script src|<link ", page
+    )  # self-contained: nothing from the internet
+    status, kind, body = fetch(url + "clips.json")
+    assert status == 200 and kind == "application/json"
+    assert json.loads(body)["clips"][0]["label"] == "tiny.bvh"
+    assert fetch(url + "../etc/passwd")[0] == 404
+    assert fetch(url, host="attacker.example:80")[0] == 403  # a DNS-rebound name is turned away
+
+
+def test_a_taken_port_is_a_one_line_error(three_channel_bvh: Path) -> None:
+    payload = build_payload([read_bvh(three_channel_bvh)[0]], ["tiny.bvh"])
+    first = make_server(payload, 0)
+    try:
+        with pytest.raises(ElastyleError, match=r"127\.0\.0\.1:\d+ is in use; choose another --port"):
+            make_server(payload, first.server_address[1])
+    finally:
+        first.server_close()
+
+
+def test_view_command_serves_and_prints_the_url(three_channel_bvh: Path) -> None:
+    command = [
+        sys.executable,
+        "-c",
+        VIEW_HARNESS,
+        "view",
+        str(three_channel_bvh),
+        "--no-browser",
+        "--port",
+        "0",
+    ]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert process.stdout is not None
+        ready, _, _ = select.select([process.stdout], [], [], 30)
+        assert ready, "the view command printed nothing within 30 s"
+        line = process.stdout.readline()
+        match = re.search(r"http://127\.0\.0\.1:\d+/", line)
+        assert match, line
+        status, _, body = fetch(match.group(0) + "clips.json")
+        assert status == 200 and json.loads(body)["clips"][0]["label"] == three_channel_bvh.name
+    finally:
+        process.terminate()
+        process.wait(timeout=10)
+
+
+def test_view_command_reports_a_missing_clip_in_one_line(tmp_path: Path) -> None:
+    command = [sys.executable, "-c", VIEW_HARNESS, "view", str(tmp_path / "nope.bvh"), "--no-browser"]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=60)
+    assert result.returncode == 1 and result.stdout == ""
+    assert result.stderr.startswith("elastyle: error: ") and "nope.bvh" in result.stderr
+    assert result.stderr.count("\n") == 1  # one line, no traceback
+
+
+def run_chromium(url: str, profile: Path, *mode: str) -> subprocess.CompletedProcess[str]:
+    command = [
+        str(CHROMIUM), "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+        "--disable-component-update", "--no-first-run", "--no-proxy-server", "--hide-scrollbars",
+        f"--user-data-dir={profile}", f"--window-size={WINDOW[0]},{WINDOW[1]}", "--virtual-time-budget=2500",
+        *mode, url,
+    ]  # fmt: skip
+    result = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr[-2000:]
+    return result
+
+
+def colour_pixels(pixels: np.ndarray, colour: str, tolerance: float = 40.0) -> int:
+    """How many pixels (H, W, 3) lie within `tolerance` of a #rrggbb colour."""
+    target = np.array([int(colour[i : i + 2], 16) for i in (1, 3, 5)], dtype=np.float64)
+    return int(np.sum(np.linalg.norm(pixels - target, axis=-1) < tolerance))
+
+
+@pytest.mark.slow
+def test_headless_browser_plays_and_draws_skeletons(
+    dataset_clips: list[ClipRef], serve: Callable[[dict[str, Any]], str], tmp_path: Path
+) -> None:
+    if not CHROMIUM.exists():
+        pytest.skip(f"{CHROMIUM} not found: install chromium (apt-get install chromium) for the browser test")
+    Image = pytest.importorskip("PIL.Image", reason="reading the screenshot needs Pillow")
+    names = ["dataset-2_walk_normal_005", STYLE_CLIP]
+    motions = [clip_named(dataset_clips, n).read()[0].slice(0, 150) for n in names]
+    explain = read_explain(write_explain(tmp_path / "explain.json", f"some/where/{STYLE_CLIP}.bvh"))
+    url = serve(build_payload(motions, [n + ".bvh" for n in names], explain))
+
+    # 1. The page loads the clips and plays: the frame counter has moved after 2.5 s of page time.
+    dom = run_chromium(url, tmp_path / "profile-dom", "--dump-dom").stdout
+    assert 'data-ready="1"' in dom, dom[-2000:]
+    frame = re.search(r'data-frame="(\d+)"', dom)
+    assert frame and int(frame.group(1)) > 30, "the timeline did not advance"
+    assert f"{names[0]}.bvh  frame" in dom and f"{STYLE_CLIP}.bvh  frame" in dom
+    assert f"style 1: {STYLE_CLIP}.bvh (mirrored)" in dom  # t > 1 s: the second patch
+
+    # 2. The screenshot shows both skeletons in their own colours on a gridded ground.
+    shot = tmp_path / "view.png"
+    run_chromium(url, tmp_path / "profile-shot", f"--screenshot={shot}")
+    pixels = np.asarray(Image.open(shot).convert("RGB"), dtype=np.float64)  # (H, W, 3)
+    assert pixels.shape[:2] == (WINDOW[1], WINDOW[0])
+    scene = pixels[100 : WINDOW[1] - 60]  # below the legend, above the controls
+    assert len(np.unique(scene.reshape(-1, 3), axis=0)) > 50
+    for colour in ("#1f6fd1", "#d1431f", "#7b4fd8", "#e08a1e"):  # left and right bones of both clips
+        assert colour_pixels(scene, colour) > 40, colour
+    assert colour_pixels(scene, "#cfcfca", 6.0) > 200  # ground grid
