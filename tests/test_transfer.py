@@ -71,13 +71,13 @@ def test_elastic_takes_the_style_timing_and_rigid_does_not(
 def test_strength_zero_is_the_content_through_the_autoencoder(
     model, content: Motion, style_clip: Motion
 ) -> None:  # type: ignore[no-untyped-def]
-    out = transfer(content, style_clip, model, strength=0.0).motion
+    out = transfer(content, style_clip, model, TransferConfig(cleanup=False), strength=0.0).motion
     assert out.num_frames == content.num_frames
     np.testing.assert_allclose(out.positions(), reconstruct(model, content).positions(), atol=1e-3)
 
 
 def test_strength_schedule_fades_the_style_in(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
-    faded = transfer(content, style_clip, model, strength="0:0,2:0,4:1").motion
+    faded = transfer(content, style_clip, model, TransferConfig(cleanup=False), strength="0:0,2:0,4:1").motion
     plain = reconstruct(model, content)
     # during the first two seconds the output is the content (through the autoencoder), frame for frame
     np.testing.assert_allclose(faded.positions()[:45], plain.positions()[:45], atol=1e-3)
@@ -89,8 +89,9 @@ def test_transition_and_blend_of_two_styles(
     model, content: Motion, style_clip: Motion, dataset_clips
 ) -> None:  # type: ignore[no-untyped-def]
     slow_style = clip_named(dataset_clips, "dataset-2_walk_masculine_010").read()[0]
-    only_first = transfer(content, style_clip, model).motion
-    change = transfer(content, style_clip, model, second_style=slow_style, second_weight="3:0,5:1").motion
+    raw = TransferConfig(cleanup=False)
+    only_first = transfer(content, style_clip, model, raw).motion
+    change = transfer(content, style_clip, model, raw, second_style=slow_style, second_weight="3:0,5:1").motion
     # before the change begins, the output is the first style's
     np.testing.assert_allclose(change.positions()[:60], only_first.positions()[:60], atol=1e-3)
     blend = transfer(content, style_clip, model, second_style=slow_style, second_weight=0.5).motion
@@ -147,3 +148,20 @@ def test_content_timing_keeps_the_content_clock(model, content: Motion, style_cl
     f_content, f_style = cadence_steps_s(content), cadence_steps_s(style_clip)
     assert timing_error(cadence_steps_s(out), f_content, f_style) > 0.7
     np.testing.assert_allclose(_path(out)[-1], _path(content)[-1], atol=15)
+
+
+@pytest.mark.parametrize("timing", ["style", "content"])
+def test_cleanup_plants_the_feet(model, content: Motion, style_clip: Motion, timing: str) -> None:  # type: ignore[no-untyped-def]
+    from elastyle.cleanup import ground_level
+    from elastyle.eval.metrics import foot_skating_cm_s
+    from elastyle.eval.report import bone_length_error_cm
+
+    raw = transfer(content, style_clip, model, TransferConfig(timing=timing, cleanup=False)).motion
+    clean = transfer(content, style_clip, model, TransferConfig(timing=timing)).motion
+    assert foot_skating_cm_s(clean) <= 8.0 < foot_skating_cm_s(raw)
+    assert bone_length_error_cm(clean, content) < 1e-6
+    toes = clean.positions()[:, [clean.skeleton.index("Toes_L"), clean.skeleton.index("Toes_R")], 1]
+    assert toes.min() >= ground_level(raw) - 1e-6
+    if timing == "style":
+        f_content, f_style = cadence_steps_s(content), cadence_steps_s(style_clip)
+        assert timing_error(cadence_steps_s(clean), f_content, f_style) <= 0.3

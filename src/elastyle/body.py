@@ -1,14 +1,18 @@
-"""Body-level conventions: which way a skeleton faces, and its heading over time.
+"""Body-level conventions: legs and hands, the length unit, which way a skeleton faces, its heading.
 
 Axes: +Y up. The heading yaw is the rotation about +Y that turns +Z into the body's facing direction.
+Legs are found from the skeleton: each left/right pair of the pelvis's children starts a leg, its
+deepest joint is the toe and the toe's parent the ankle; thresholds elsewhere are relative to the leg length.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from elastyle.skeleton import Skeleton
-from elastyle.types import FloatArray
+from elastyle.types import FloatArray, IntArray
 
 
 def pelvis_forward_local(skeleton: Skeleton) -> FloatArray:
@@ -72,3 +76,61 @@ def yaw_matrices(yaw: FloatArray) -> FloatArray:
     matrices[..., 2, 0] = -sin
     matrices[..., 2, 2] = cos
     return matrices
+
+
+def centimetres_per_unit(skeleton: Skeleton) -> float:
+    """Guess the file's length unit from the rest height: metres, centimetres or inches (default cm)."""
+    height = skeleton.height()
+    if height < 5:
+        return 100.0
+    if 40 < height < 90:
+        return 2.54
+    return 1.0
+
+
+@dataclass(frozen=True)
+class Limbs:
+    """Joint indices: toes (F,), ankles (F,), hips (F,), and hands (H,) (end joints of arm chains)."""
+
+    toes: IntArray
+    ankles: IntArray
+    hips: IntArray
+    hands: IntArray
+
+
+def _deepest_descendant(skeleton: Skeleton, joint: int) -> int:
+    depth = {joint: 0}
+    for j in range(joint + 1, skeleton.num_joints):
+        if skeleton.parents[j] in depth:
+            depth[j] = depth[int(skeleton.parents[j])] + 1
+    return max(depth, key=lambda j: (depth[j], -j))
+
+
+def find_limbs(skeleton: Skeleton) -> Limbs:
+    partner = skeleton.mirror_pairs()
+    pelvis = skeleton.pelvis
+    legs = [c for c in skeleton.children(pelvis) if partner[c] != c]
+    toes = [_deepest_descendant(skeleton, leg) for leg in legs]
+    ankles = [int(skeleton.parents[t]) if skeleton.parents[t] != leg else t for t, leg in zip(toes, legs)]
+    spine = [c for c in skeleton.children(pelvis) if partner[c] == c]
+    hands: list[int] = []
+    if spine:
+        below_spine = {spine[0]}
+        for j in range(spine[0] + 1, skeleton.num_joints):
+            if skeleton.parents[j] in below_spine:
+                below_spine.add(j)
+        # arm roots: sided joints below the spine whose parent is a centre joint
+        roots = [
+            j
+            for j in sorted(below_spine)
+            if partner[j] != j and partner[skeleton.parents[j]] == skeleton.parents[j]
+        ]
+        hands = [_deepest_descendant(skeleton, r) for r in roots]
+    return Limbs(np.array(toes), np.array(ankles), np.array(legs), np.array(hands, dtype=np.int64))
+
+
+def leg_length(skeleton: Skeleton, limbs: Limbs) -> float:
+    rest = skeleton.rest_positions()
+    if len(limbs.toes) == 0:
+        return skeleton.height() / 2
+    return float(np.mean(np.linalg.norm(rest[limbs.hips] - rest[limbs.ankles], axis=-1)))

@@ -1,19 +1,18 @@
 """Foot contact cleanup: find planted feet, pin them with two-joint leg IK, and let the root follow the stride.
 
-Axes +Y up; lengths stay in the file's unit. Every threshold is a fraction of the leg length (hip to ankle
-at rest) or leg lengths per second, and heights are measured from the clip's own ground level (a low
-percentile of each foot joint's height), so metres, centimetres and inches behave alike.
-Only rotations of the leg chain (upper leg, knee, ankle) change, plus the pelvis translation where a leg
-cannot reach: bone lengths stay exact.
+Axes +Y up; lengths stay in the file's unit. Thresholds are fractions of the leg length (hip to ankle at
+rest, per second for speeds) above the clip's own ground level (a low percentile of each foot joint's
+height), so metres, centimetres and inches behave alike.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from elastyle.eval.metrics import Limbs, find_limbs, leg_length
+from elastyle.body import Limbs, find_limbs, leg_length
 from elastyle.motion import Motion
 from elastyle.rotations import from_matrix, to_matrix
+from elastyle.skeleton import Skeleton
 from elastyle.types import BoolArray, FloatArray, IntArray
 
 GROUND_PERCENTILE = 5.0  # a foot joint's ground level: this percentile of its heights over the clip
@@ -24,7 +23,6 @@ EXIT_SPEED_LEGS_S = 1.0  # ... or faster than this (80 cm/s)
 MIN_CONTACT_S = 0.05  # shorter contacts are dropped and shorter gaps between contacts are filled
 BRIDGE_GAP_S = 0.6  # a foot's gaps between contacts up to this long (a step's swing) are bridged directly
 SOFT_REACH = 0.995  # IK straightens a knee up to this fraction of the leg's reach before lowering the pelvis
-HORIZONTAL = np.array([0, 2])
 
 
 def ground_level(motion: Motion, positions: FloatArray | None = None) -> float:
@@ -42,15 +40,15 @@ def detect_contacts(motion: Motion) -> BoolArray:
     `MIN_CONTACT_S` are removed.
     """
     limbs = find_limbs(motion.skeleton)
+    if len(limbs.toes) == 0:
+        return np.zeros((motion.num_frames, 0), dtype=bool)
     positions = motion.positions()  # (T, J, 3)
     leg = leg_length(motion.skeleton, limbs)
     joints = np.stack([limbs.toes, limbs.ankles])  # (2, F) toe and ankle of each foot
     heights = positions[:, joints, 1]  # (T, 2, F)
     heights = heights - np.percentile(heights, GROUND_PERCENTILE, axis=(0, 2), keepdims=True)
-    if motion.num_frames > 1:
-        velocity = np.gradient(positions[:, joints][..., HORIZONTAL], axis=0) * motion.fps  # (T, 2, F, 2)
-    else:
-        velocity = np.zeros((*heights.shape, 2))
+    horizontal = positions[:, joints][..., [0, 2]]  # (T, 2, F, 2)
+    velocity = np.gradient(horizontal, axis=0) * motion.fps if motion.num_frames > 1 else 0 * horizontal
     speed_legs_s = np.linalg.norm(velocity, axis=-1) / leg  # (T, 2, F)
     enter = np.any((heights < ENTER_HEIGHT_OF_LEG * leg) & (speed_legs_s < ENTER_SPEED_LEGS_S), axis=1)
     stay = np.any((heights < EXIT_HEIGHT_OF_LEG * leg) & (speed_legs_s < EXIT_SPEED_LEGS_S), axis=1)
@@ -72,23 +70,25 @@ def detect_contacts(motion: Motion) -> BoolArray:
 def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float = 0.15) -> Motion:
     """Pin each planted foot in place with two-joint IK; a new Motion (same skeleton, fps and frames).
 
-    contacts: (T, F) from `detect_contacts` (detected here when None). During a contact the foot's contact
-    point (toe/ankle blend, the lower one weighing more) is held at its mean horizontal position over the
-    contact; its height is left as it was. The horizontal correction is eased in and out with cubic
-    Hermite ramps over `blend_s` seconds (matching position and velocity at the contact's ends). Anywhere,
-    a toe or ankle below `ground_level` is lifted to it. The feet keep their world orientation; hips and
-    knees turn in the original knee plane; the pelvis is lowered, smoothly, only where a leg cannot reach.
+    contacts: (T, F) from `detect_contacts` (detected here when None). During a contact the foot is held
+    horizontally around its mean position (the toe, or the ankle at heel strike, stops moving; the hold
+    fades as the foot lifts off); heights stay. The correction eases in and out over `blend_s` seconds
+    (cubic Hermite, matching position and velocity at the contact's ends) and is carried straight across
+    a step's swing. Anywhere, a toe or ankle below `ground_level` is lifted to it. Feet keep their world
+    orientation; hip and knee turn in the original knee plane; the pelvis is lowered (smoothly) only
+    where a leg cannot reach. Only leg rotations and the pelvis height change: bone lengths stay exact.
     """
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
-    contacts = detect_contacts(motion) if contacts is None else contacts
-    if contacts.shape != (motion.num_frames, len(limbs.toes)):
-        raise ValueError(f"contacts must be ({motion.num_frames}, {len(limbs.toes)}), got {contacts.shape}")
+    contacts = detect_contacts(motion) if contacts is None else _checked(contacts, motion, limbs)
+    if contacts.shape[1] == 0:
+        return Motion(skeleton, motion.rotations.copy(), motion.translations.copy(), motion.fps)
+    leg = leg_length(skeleton, limbs)
     world_rotations, positions = motion.world()
     ground = ground_level(motion, positions)
     ramp_frames = blend_s * motion.fps
     bridge_frames = max(BRIDGE_GAP_S * motion.fps, 2 * ramp_frames)
     # 1. ankle targets: the pinned contact point's correction moves the whole foot, then lift to the ground
-    points, weights = _pivots(positions, limbs, leg_length(skeleton, limbs))  # (T, F, 2, 3), (T, F, 2)
+    points, weights = _pivots(positions, limbs, leg)  # (T, F, 2, 3), (T, F, 2)
     targets = positions[:, limbs.ankles].copy()  # (T, F, 3)
     for foot in range(len(limbs.toes)):
         targets[:, foot] += _pin_corrections(
@@ -98,68 +98,71 @@ def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float
     targets[..., 1] += np.maximum(0.0, ground - np.minimum(toe_heights, targets[..., 1]))
     # 2. lower the pelvis where a target is out of reach, then redo forward kinematics
     knees = skeleton.parents[limbs.ankles]
-    uppers = skeleton.parents[knees]
+    chains = np.stack([skeleton.parents[knees], knees, limbs.ankles], axis=1)  # (F, 3) upper leg, knee, ankle
+    # the upper leg must hang below the leg's root: a two-bone leg off the pelvis has no knee to bend
+    legs = np.array([_is_below(skeleton, int(chain[0]), int(hip)) for chain, hip in zip(chains, limbs.hips)])
     rotations, translations = motion.rotations.copy(), motion.translations.copy()
-    lowering = _pelvis_lowering(positions, uppers, knees, limbs.ankles, targets, ramp_frames)  # (T,)
+    lowering = _pelvis_lowering(positions, chains[legs], targets[:, legs], ramp_frames)  # (T,)
     if np.any(lowering > 0):
-        pelvis, parent = skeleton.pelvis, skeleton.parents[skeleton.pelvis]
         shift = np.zeros((motion.num_frames, 3))
         shift[:, 1] = -lowering
-        if parent >= 0:  # the pelvis translation is in its parent's frame
-            shift = np.einsum("tji,tj->ti", world_rotations[:, parent], shift)
-        translations[:, pelvis] += shift
+        translations = _shift_pelvis(motion, world_rotations, shift)
         world_rotations, positions = Motion(skeleton, rotations, translations, motion.fps).world()
-    # 3. two-joint IK per leg on the frames whose ankle has to move
-    tolerance = 1e-9 * leg_length(skeleton, limbs)
-    for foot, (upper, knee, ankle) in enumerate(zip(uppers, knees, limbs.ankles)):
-        frames = np.flatnonzero(np.linalg.norm(targets[:, foot] - positions[:, ankle], axis=-1) > tolerance)
-        if frames.size == 0:
-            continue
-        axes = _knee_axes(world_rotations, positions, int(upper), int(knee), int(ankle))  # (T, 3)
-        upper_world, knee_world = _two_joint_ik(
-            positions[frames][:, [upper, knee, ankle]], targets[frames, foot], axes[frames],
-            world_rotations[frames, upper], world_rotations[frames, knee],
-        )  # fmt: skip
-        parent = skeleton.parents[upper]
-        parent_world = world_rotations[frames, parent] if parent >= 0 else np.eye(3)
-        local = np.stack([
-            np.swapaxes(parent_world, -1, -2) @ upper_world,
-            np.swapaxes(upper_world, -1, -2) @ knee_world,
-            np.swapaxes(knee_world, -1, -2) @ world_rotations[frames, ankle],
-        ], axis=1)  # (N, 3, 3, 3) new local rotations of upper leg, knee and ankle  # fmt: skip
-        rotations[frames[:, None], np.array([upper, knee, ankle])] = from_matrix(local)
+    # 3. two-joint IK per leg on the frames whose ankle has to move (elsewhere the input stays exact)
+    for foot in np.flatnonzero(legs).tolist():
+        moved = np.linalg.norm(targets[:, foot] - positions[:, chains[foot, 2]], axis=-1) > 1e-9 * leg
+        if np.any(moved):
+            parent = skeleton.parents[chains[foot, 0]]
+            local = _leg_ik(world_rotations, positions, parent, chains[foot], targets[:, foot])  # (T, 3, 3)
+            rotations[np.flatnonzero(moved)[:, None], chains[foot]] = local[moved]
     return Motion(skeleton, rotations, translations, motion.fps)
 
 
 def adjust_root_speed(motion: Motion, contacts: BoolArray, smooth_s: float = 0.2) -> Motion:
     """Move the pelvis horizontally so that planted feet stop drifting: the root advances with the stride.
 
-    contacts: (T, F) planted feet. For each frame step, the mean horizontal displacement (file units) of the
-    feet planted at both frames is subtracted from the pelvis path, after a Hann smoothing over `smooth_s`
-    seconds; steps without a planted foot keep their original displacement. Run it before `clean_feet`.
+    contacts: (T, F) planted feet. Each frame step, the mean horizontal step (file units) of the feet held
+    at both frames (weighted as in `clean_feet`), Hann-smoothed over `smooth_s` seconds, is taken off the
+    pelvis path; steps with no foot planted keep theirs. Run it before `clean_feet`.
     """
     limbs = find_limbs(motion.skeleton)
-    if contacts.shape != (motion.num_frames, len(limbs.toes)):
-        raise ValueError(f"contacts must be ({motion.num_frames}, {len(limbs.toes)}), got {contacts.shape}")
-    if motion.num_frames < 2:
-        return motion
+    contacts = _checked(contacts, motion, limbs)
+    if motion.num_frames < 2 or contacts.shape[1] == 0:
+        return Motion(motion.skeleton, motion.rotations.copy(), motion.translations.copy(), motion.fps)
     world_rotations, positions = motion.world()
     points, weights = _pivots(positions, limbs, leg_length(motion.skeleton, limbs))  # (T, F, 2, 3), (T, F, 2)
-    planted = (contacts[1:] & contacts[:-1]).astype(np.float64)  # (T-1, F)
-    steps = (
-        np.sum(np.diff(points, axis=0) * weights[:-1, ..., None], axis=2) * planted[..., None]
-    )  # (T-1, F, 3)
-    count = planted.sum(axis=1, keepdims=True)  # (T-1, 1)
-    drift = steps.sum(axis=1) / np.maximum(count, 1.0)  # (T-1, 3)
+    planted = (contacts[1:] & contacts[:-1])[..., None] * 0.5 * (weights[1:] + weights[:-1])  # (T-1, F, 2)
+    steps = np.sum(planted[..., None] * np.diff(points, axis=0), axis=(1, 2))  # (T-1, 3)
+    drift = steps / np.maximum(planted.sum(axis=(1, 2)), 1.0)[:, None]  # (T-1, 3) mean planted-foot step
     drift[:, 1] = 0.0
     drift = _smooth(drift, smooth_s * motion.fps)
     shift = -np.concatenate([np.zeros((1, 3)), np.cumsum(drift, axis=0)])  # (T, 3) world
+    return Motion(
+        motion.skeleton, motion.rotations.copy(), _shift_pelvis(motion, world_rotations, shift), motion.fps
+    )
+
+
+def _checked(contacts: BoolArray, motion: Motion, limbs: Limbs) -> BoolArray:
+    contacts = np.asarray(contacts, dtype=bool)
+    if contacts.shape != (motion.num_frames, len(limbs.toes)):
+        raise ValueError(f"contacts must be ({motion.num_frames}, {len(limbs.toes)}), got {contacts.shape}")
+    return contacts
+
+
+def _shift_pelvis(motion: Motion, world_rotations: FloatArray, shift: FloatArray) -> FloatArray:
+    """Translations (T, J, 3) with the pelvis moved by `shift` (T, 3), world frame, file units."""
     pelvis, parent = motion.skeleton.pelvis, motion.skeleton.parents[motion.skeleton.pelvis]
-    if parent >= 0:
+    if parent >= 0:  # the pelvis translation is in its parent's frame
         shift = np.einsum("tji,tj->ti", world_rotations[:, parent], shift)
     translations = motion.translations.copy()
     translations[:, pelvis] += shift
-    return Motion(motion.skeleton, motion.rotations.copy(), translations, motion.fps)
+    return translations
+
+
+def _is_below(skeleton: Skeleton, joint: int, ancestor: int) -> bool:
+    while joint > ancestor:
+        joint = int(skeleton.parents[joint])
+    return joint == ancestor
 
 
 def _runs(mask: BoolArray) -> list[tuple[int, int]]:
@@ -169,15 +172,20 @@ def _runs(mask: BoolArray) -> list[tuple[int, int]]:
 
 
 def _pivots(positions: FloatArray, limbs: Limbs, leg: float) -> tuple[FloatArray, FloatArray]:
-    """Toe and ankle positions (T, F, 2, 3) of each foot and the weight (T, F, 2) each bears.
+    """Toe and ankle positions (T, F, 2, 3) of each foot and how firmly (T, F, 2) each is held in place.
 
     The toe is what skating metrics watch and it stays put from foot-flat to toe-off; only at heel strike
-    (toe still coming down, higher than the ankle above their ground levels) does the ankle carry it.
+    (toe still coming down, higher than the ankle above their ground levels) does the ankle carry the
+    weight. The hold fades from 1 to 0 as that pivot rises from half the entry height to the exit height,
+    so a foot lifting off leaves gently instead of being pinned until the contact ends.
     """
     points = np.stack([positions[:, limbs.toes], positions[:, limbs.ankles]], axis=2)  # (T, F, 2, 3)
     heights = points[..., 1] - np.percentile(points[..., 1], GROUND_PERCENTILE, axis=(0, 1))  # (T, F, 2)
     toe_weight = _smoothstep(1.0 + (heights[..., 1] - heights[..., 0]) / (ENTER_HEIGHT_OF_LEG * leg))
-    return points, np.stack([toe_weight, 1 - toe_weight], axis=-1)
+    weights = np.stack([toe_weight, 1 - toe_weight], axis=-1)  # (T, F, 2), sums to 1
+    pivot_height = np.sum(weights * heights, axis=-1)  # (T, F)
+    low, high = 0.5 * ENTER_HEIGHT_OF_LEG * leg, EXIT_HEIGHT_OF_LEG * leg
+    return points, weights * _smoothstep((high - pivot_height) / (high - low))[..., None]
 
 
 def _smoothstep(x: FloatArray) -> FloatArray:
@@ -185,56 +193,50 @@ def _smoothstep(x: FloatArray) -> FloatArray:
     return x * x * (3 - 2 * x)
 
 
-def _hermite(start: FloatArray, start_slope: FloatArray, end: FloatArray, end_slope: FloatArray,
-             u: FloatArray, span: float) -> FloatArray:  # fmt: skip
-    """Cubic Hermite curve (N, 3) at u (N,) in [0, 1] between values (3,) with slopes (3,) per frame."""
-    u = u[:, None]
-    return ((2 * u**3 - 3 * u**2 + 1) * start + (u**3 - 2 * u**2 + u) * span * start_slope
-            + (3 * u**2 - 2 * u**3) * end + (u**3 - u**2) * span * end_slope)  # fmt: skip
-
-
 def _pin_corrections(
     points: FloatArray, weights: FloatArray, contact: BoolArray, ramp_frames: float, bridge_frames: float
 ) -> FloatArray:
     """Horizontal offsets (T, 3) that hold a foot still during each contact, around its mean position.
 
-    points: (T, 2, 3) toe and ankle; weights: (T, 2) the share each bears. Within a contact the offset
-    cancels the weighted pivot's displacement, so heel-to-toe roll is kept; heights are left alone.
+    points: (T, 2, 3) toe and ankle; weights: (T, 2) how firmly each is held. Within a contact the offset
+    cancels the held pivot's displacement, so heel-to-toe roll is kept; heights are left alone.
     Between contacts the offset eases back to zero over `ramp_frames`, or straight to the next contact's
-    offset across gaps up to `bridge_frames` (a swing), matching the offset's slope at each contact's ends.
+    offset across gaps up to `bridge_frames` (a swing): cubic Hermite, matching value and slope at the ends.
     """
-    num_frames = points.shape[0]
-    corrections = np.zeros((num_frames, 3))
-    zero = np.zeros(3)
-    previous: tuple[int, FloatArray, FloatArray] | None = None  # last contact frame, offset, slope
-
-    def fill(first: float, last: float, start: FloatArray, start_slope: FloatArray,
-             end: FloatArray, end_slope: FloatArray) -> None:  # fmt: skip
-        frames = np.arange(max(int(np.floor(first)) + 1, 0), min(int(np.ceil(last)), num_frames))
-        if frames.size:
-            span = last - first
-            corrections[frames] = _hermite(start, start_slope, end, end_slope, (frames - first) / span, span)
-
+    corrections = np.zeros((points.shape[0], 3))
+    knots: list[tuple[float, FloatArray, FloatArray]] = []  # (frame, offset, slope per frame) at contact ends
     for start, stop in _runs(contact):
-        # undo the weight-bearing pivot's steps (weights sum to 1, so a roll from heel to toe is no step)
+        # undo the held pivot's steps (the weights blend, so a roll from heel to toe is no step)
         share = 0.5 * (weights[start + 1 : stop] + weights[start : stop - 1])  # (N-1, 2)
         steps = np.sum(share[..., None] * np.diff(points[start:stop], axis=0), axis=1)  # (N-1, 3)
         offsets = -np.concatenate([np.zeros((1, 3)), np.cumsum(steps, axis=0)])  # (N, 3)
         offsets -= offsets.mean(axis=0)
         offsets[:, 1] = 0.0
         corrections[start:stop] = offsets
-        slope_in = offsets[1] - offsets[0] if stop - start > 1 else zero
-        slope_out = offsets[-1] - offsets[-2] if stop - start > 1 else zero
-        if ramp_frames > 0:
-            if previous is not None and start - previous[0] <= bridge_frames:
-                fill(previous[0], start, previous[1], previous[2], offsets[0], slope_in)
-            else:
-                if previous is not None:
-                    fill(previous[0], previous[0] + ramp_frames, previous[1], previous[2], zero, zero)
-                fill(start - ramp_frames, start, zero, zero, offsets[0], slope_in)
-        previous = (stop - 1, offsets[-1], slope_out)
-    if previous is not None and ramp_frames > 0:
-        fill(previous[0], previous[0] + ramp_frames, previous[1], previous[2], zero, zero)
+        slopes = np.diff(offsets, axis=0) if stop - start > 1 else np.zeros((1, 3))
+        knots += [(start, offsets[0], slopes[0]), (stop - 1, offsets[-1], slopes[-1])]
+    if ramp_frames <= 0 or not knots:
+        return corrections
+    zero = np.zeros(3)
+    chain = [(knots[0][0] - ramp_frames, zero, zero), *knots, (knots[-1][0] + ramp_frames, zero, zero)]
+    spans = []
+    for left, right in zip(chain[::2], chain[1::2]):  # the gaps: before, between and after the contacts
+        if right[0] - left[0] > bridge_frames:  # longer than a swing: ease out to zero and back in
+            spans += [
+                (left, (left[0] + ramp_frames, zero, zero)),
+                ((right[0] - ramp_frames, zero, zero), right),
+            ]
+        else:
+            spans.append((left, right))
+    for (first, start_value, start_slope), (last, end_value, end_slope) in spans:
+        frames = np.arange(max(int(np.floor(first)) + 1, 0), min(int(np.ceil(last)), points.shape[0]))
+        u = ((frames - first) / (last - first))[:, None]  # (N, 1) in (0, 1)
+        corrections[frames] = (
+            (2 * u**3 - 3 * u**2 + 1) * start_value
+            + (u**3 - 2 * u**2 + u) * (last - first) * start_slope
+            + (3 * u**2 - 2 * u**3) * end_value
+            + (u**3 - u**2) * (last - first) * end_slope
+        )
     return corrections
 
 
@@ -245,27 +247,29 @@ def _smooth(values: FloatArray, radius_frames: float) -> FloatArray:
         return values.copy()
     kernel = np.hanning(2 * radius + 3)[1:-1]  # (2r + 1,) positive weights
     kernel /= kernel.sum()
-    padded = np.concatenate([np.repeat(values[:1], radius, 0), values, np.repeat(values[-1:], radius, 0)])
-    return np.stack([np.convolve(column, kernel, mode="valid") for column in padded.reshape(len(padded), -1).T],
-                    axis=1).reshape(values.shape)  # fmt: skip
+    padded = np.pad(values.reshape(len(values), -1), [(radius, radius), (0, 0)], mode="edge")  # (T + 2r, C)
+    columns = [np.convolve(column, kernel, mode="valid") for column in padded.T]
+    return np.stack(columns, axis=1).reshape(values.shape)
 
 
-def _pelvis_lowering(positions: FloatArray, uppers: IntArray, knees: IntArray, ankles: IntArray,
-                     targets: FloatArray, ramp_frames: float) -> FloatArray:  # fmt: skip
-    """How far (T,) to lower the pelvis so every ankle target is within its leg's reach, smoothly.
+def _pelvis_lowering(
+    positions: FloatArray, chains: IntArray, targets: FloatArray, ramp_frames: float
+) -> FloatArray:
+    """How far (T,) to lower the pelvis so each ankle target (T, F, 3) is in reach of its leg, smoothly.
 
-    Reach is the original hip-ankle distance or `SOFT_REACH` of the straight leg, whichever is longer.
-    The need is dilated then averaged over the same window, so the result never falls below it.
+    chains: (F, 3) upper leg, knee and ankle joints. Reach is the original hip-ankle distance or
+    `SOFT_REACH` of the straight leg, whichever is longer. The need is dilated then averaged over the same
+    window, so the result never falls below it.
     """
-    hips = positions[:, uppers]  # (T, F, 3)
-    thigh = np.linalg.norm(positions[:, knees] - hips, axis=-1)  # (T, F)
-    shin = np.linalg.norm(positions[:, ankles] - positions[:, knees], axis=-1)
-    reach = np.maximum(np.linalg.norm(positions[:, ankles] - hips, axis=-1), SOFT_REACH * (thigh + shin))
+    hips, knees, ankles = (positions[:, chains[:, i]] for i in range(3))  # (T, F, 3) each
+    thigh = np.linalg.norm(knees - hips, axis=-1)  # (T, F)
+    shin = np.linalg.norm(ankles - knees, axis=-1)
+    reach = np.maximum(np.linalg.norm(ankles - hips, axis=-1), SOFT_REACH * (thigh + shin))
     reach = np.minimum(reach, (1 - 1e-9) * (thigh + shin))
     offset = targets - hips  # (T, F, 3)
     horizontal_sq = offset[..., 0] ** 2 + offset[..., 2] ** 2
-    need = np.max(-offset[..., 1] - np.sqrt(np.maximum(reach**2 - horizontal_sq, 0.0)), axis=1)  # (T,)
-    need = np.maximum(need, 0.0)
+    need = -offset[..., 1] - np.sqrt(np.maximum(reach**2 - horizontal_sq, 0.0))  # (T, F)
+    need = np.max(need, axis=1, initial=0.0)  # (T,)
     if not np.any(need > 0):
         return need
     radius = max(1, int(np.ceil(ramp_frames)))
@@ -274,52 +278,48 @@ def _pelvis_lowering(positions: FloatArray, uppers: IntArray, knees: IntArray, a
     return np.maximum(_smooth(dilated, radius), need)
 
 
-def _knee_axes(
-    world_rotations: FloatArray, positions: FloatArray, upper: int, knee: int, ankle: int
+def _angle(u: FloatArray, v: FloatArray) -> FloatArray:
+    """Angles (N,) in radians between vectors (N, 3)."""
+    cosine = np.sum(u * v, -1) / np.maximum(np.linalg.norm(u, axis=-1) * np.linalg.norm(v, axis=-1), 1e-300)
+    return np.arccos(np.clip(cosine, -1.0, 1.0))
+
+
+def _leg_ik(
+    world_rotations: FloatArray, positions: FloatArray, parent: int, joints: IntArray, targets: FloatArray
 ) -> FloatArray:
-    """(T, 3) unit normal of each frame's knee plane, (ankle - hip) x (knee - hip), world frame.
+    """Analytic two-joint IK: local exp maps (T, 3, 3) of upper leg, knee and ankle putting the ankle on targets.
 
-    A straight leg has no plane of its own: it gets the clip's mean normal in the upper leg's frame.
+    world_rotations: (T, J, 3, 3); positions: (T, J, 3); joints: (3,) upper leg, knee, ankle; targets: (T, 3).
+    The knee bends in its own plane (normal (ankle - hip) x (knee - hip); a straight leg borrows the clip's
+    mean normal in the upper leg's frame) to get the hip-target distance by the law of cosines, the leg
+    turns back in that plane onto its old hip-ankle line, then swings that line onto the target (minimal
+    arc). The ankle keeps its world rotation, so the foot keeps its orientation.
     """
-    hip_to_ankle = positions[:, ankle] - positions[:, upper]
-    hip_to_knee = positions[:, knee] - positions[:, upper]
-    normal = np.cross(hip_to_ankle, hip_to_knee)  # (T, 3)
+    upper_world, knee_world, ankle_world = (world_rotations[:, j] for j in joints)
+    hip, knee, ankle = (positions[:, j] for j in joints)
+    normal = np.cross(ankle - hip, knee - hip)  # (T, 3)
     size = np.linalg.norm(normal, axis=-1)
-    bent = size > 1e-6 * np.linalg.norm(hip_to_ankle, axis=-1) * np.linalg.norm(hip_to_knee, axis=-1)
-    local = np.einsum("tji,tj->ti", world_rotations[:, upper], normal / np.maximum(size, 1e-300)[:, None])
-    mean_local = local[bent].sum(axis=0) if np.any(bent) else np.cross(hip_to_knee[0] @ world_rotations[0, upper],
-                                                                      [0.0, 0.0, 1.0])  # fmt: skip
-    mean_local = mean_local / max(float(np.linalg.norm(mean_local)), 1e-300)
-    fallback = world_rotations[:, upper] @ mean_local  # (T, 3)
-    return np.where(bent[:, None], normal / np.maximum(size, 1e-300)[:, None], fallback)
+    bent = size > 1e-6 * np.linalg.norm(ankle - hip, axis=-1) * np.linalg.norm(knee - hip, axis=-1)
+    normal = normal / np.maximum(size, 1e-300)[:, None]
+    local_normal = np.einsum("tji,tj->ti", upper_world, normal)  # (T, 3) in the upper leg's frame
+    across = np.cross((knee - hip)[0] @ upper_world[0], [1e-3, 1e-2, 1.0])  # never bent: any axis across it
+    mean_normal = local_normal[bent].sum(axis=0) if np.any(bent) else across
+    mean_normal = mean_normal / max(float(np.linalg.norm(mean_normal)), 1e-300)
+    axes = np.where(bent[:, None], normal, upper_world @ mean_normal)  # (T, 3)
 
-
-def _two_joint_ik(chain: FloatArray, targets: FloatArray, axes: FloatArray, upper_world: FloatArray,
-                  knee_world: FloatArray) -> tuple[FloatArray, FloatArray]:  # fmt: skip
-    """Analytic IK: new world rotations (N, 3, 3) of upper leg and knee putting the ankle on its target.
-
-    chain: (N, 3, 3) world positions of hip, knee, ankle; targets: (N, 3); axes: (N, 3) knee plane normals.
-    The knee bends about `axes` to get the hip-target distance (law of cosines), the leg turns back in
-    that plane to its old hip-ankle line, then swings that line onto the target (minimal arc).
-    """
-    hip, knee, ankle = chain[:, 0], chain[:, 1], chain[:, 2]
-    thigh = np.linalg.norm(knee - hip, axis=-1)  # (N,)
-    shin = np.linalg.norm(ankle - knee, axis=-1)
+    thigh, shin = np.linalg.norm(knee - hip, axis=-1), np.linalg.norm(ankle - knee, axis=-1)  # (T,)
     eps = 1e-9 * (thigh + shin)
     distance = np.clip(np.linalg.norm(targets - hip, axis=-1), np.abs(thigh - shin) + eps, thigh + shin - eps)
-
-    def angle(u: FloatArray, v: FloatArray) -> FloatArray:
-        cosine = np.sum(u * v, -1) / (np.linalg.norm(u, axis=-1) * np.linalg.norm(v, axis=-1))
-        return np.arccos(np.clip(cosine, -1.0, 1.0))
-
-    hip_angle_0 = angle(ankle - hip, knee - hip)
-    knee_angle_0 = angle(hip - knee, ankle - knee)
-    hip_angle_1 = np.arccos(np.clip((thigh**2 + distance**2 - shin**2) / (2 * thigh * distance), -1, 1))
-    knee_angle_1 = np.arccos(np.clip((thigh**2 + shin**2 - distance**2) / (2 * thigh * shin), -1, 1))
-    bend = to_matrix(axes * (knee_angle_1 - knee_angle_0)[:, None])  # (N, 3, 3) about the knee
-    turn = to_matrix(axes * (hip_angle_1 - hip_angle_0)[:, None])  # about the hip, back onto the old line
+    hip_angle = np.arccos(np.clip((thigh**2 + distance**2 - shin**2) / (2 * thigh * distance), -1, 1))
+    knee_angle = np.arccos(np.clip((thigh**2 + shin**2 - distance**2) / (2 * thigh * shin), -1, 1))
+    bend = to_matrix(axes * (knee_angle - _angle(hip - knee, ankle - knee))[:, None])  # (T, 3, 3) at the knee
+    turn = to_matrix(axes * (hip_angle - _angle(ankle - hip, knee - hip))[:, None])  # at the hip
     cross = np.cross(ankle - hip, targets - hip)
     swing_axis = cross / np.maximum(np.linalg.norm(cross, axis=-1), 1e-300)[:, None]
-    swing = to_matrix(swing_axis * angle(ankle - hip, targets - hip)[:, None])
+    swing = to_matrix(swing_axis * _angle(ankle - hip, targets - hip)[:, None])
     new_upper = swing @ turn @ upper_world
-    return new_upper, swing @ turn @ bend @ knee_world
+    new_knee = new_upper @ np.swapaxes(upper_world, -1, -2) @ bend @ knee_world
+    parent_world = world_rotations[:, parent] if parent >= 0 else np.eye(3)
+    local = [np.swapaxes(parent_world, -1, -2) @ new_upper, np.swapaxes(new_upper, -1, -2) @ new_knee]
+    local.append(np.swapaxes(new_knee, -1, -2) @ ankle_world)
+    return from_matrix(np.stack(local, axis=1))

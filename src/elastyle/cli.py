@@ -13,7 +13,6 @@ from collections.abc import Sequence
 
 from elastyle.errors import ElastyleError, OutputError, UsageError
 
-
 log = logging.getLogger("elastyle")
 
 

@@ -13,6 +13,9 @@ from elastyle.errors import ElastyleError, OutputError, UsageError
 log = logging.getLogger("elastyle")
 
 
+
+
+
 def add_transfer_command(commands: Any) -> None:
     parser = commands.add_parser(
         "transfer",
@@ -58,6 +61,22 @@ def add_transfer_command(commands: Any) -> None:
         "--no-mirror-style", action="store_true", help="do not add the style's mirror to its library"
     )
     parser.add_argument("--explain", help="write a JSON record of every output patch's source")
+    parser.add_argument("--no-cache", action="store_true", help="encode the style library afresh (no cache)")
+    parser.add_argument(
+        "--smooth-s",
+        type=float,
+        default=0.0,
+        help="Gaussian low-pass of the decoded motion, sigma in seconds (default 0: none)",
+    )
+    parser.add_argument(
+        "--timing",
+        choices=("style", "content"),
+        default="style",
+        help="style: the style's pace (default); content: warped back onto the content's clock",
+    )
+    parser.add_argument("--no-cleanup", action="store_true", help="the raw result: no foot contact clean-up")
+    parser.add_argument("--adjust-root", action="store_true",
+                        help="move the root with the stance foot before the clean-up (the path may drift from the content's)")
     parser.add_argument("--force", action="store_true", help="overwrite existing output files")
     parser.set_defaults(run=run_transfer)
 
@@ -82,8 +101,9 @@ def run_transfer(args: argparse.Namespace) -> int:
     from elastyle.io.dataset import find_clips, read_clip
     from elastyle.io.files import check_output_path, write_text_atomic
     from elastyle.model.file import load_model
+    from elastyle.transfer.cache import cache_folder, library_key, load_library
     from elastyle.transfer.schedule import Schedule
-    from elastyle.transfer.stylize import TransferConfig, prepare_style, transfer
+    from elastyle.transfer.stylize import TransferConfig, transfer
 
     if args.then_style and args.blend_style:
         raise _usage("give --then-style or --blend-style, not both")
@@ -101,13 +121,20 @@ def run_transfer(args: argparse.Namespace) -> int:
         stretch=args.stretch,
         stretch_step_s=args.stretch_step_s,
         mirror_style=not args.no_mirror_style,
+        smooth_s=args.smooth_s,
+        timing=args.timing,
+        cleanup=not args.no_cleanup,
+        adjust_root=args.adjust_root,
     )
     strength = Schedule.parse(args.strength, "strength")
     model = load_model(args.model)
 
     def library(specs: list[str]):  # type: ignore[no-untyped-def]
         clips = find_clips(specs)
-        motions = [clip.read()[0] for clip in clips]
+        key = library_key(model, clips, config.mirror_style)
+        if not args.no_cache and (cache_folder() / f"{key}.npz").exists():
+            return load_library(model, clips, config.mirror_style)
+        motions = [clip.read()[0] for clip in clips]  # read first: errors name the clip
         for clip, motion in zip(clips, motions):
             model.check_clip(motion, clip.name)
             if abs(motion.fps - model.fps) > 1e-6:
@@ -117,7 +144,7 @@ def run_transfer(args: argparse.Namespace) -> int:
                     motion.fps,
                     model.fps,
                 )
-        return prepare_style(model, motions, [c.name for c in clips], config.mirror_style)
+        return load_library(model, clips, config.mirror_style, use_cache=not args.no_cache)
 
     style = library(args.style)
     second = None

@@ -1,88 +1,20 @@
-"""Figures of a clip or a pair of clips, in physical units (cm, s) whatever the file's unit.
-
-Legs are found from the skeleton: each left/right pair of the pelvis's children starts a leg, its
-deepest joint is the toe and the toe's parent the ankle. Thresholds are relative to the leg length.
-"""
+"""Figures of a clip or a pair of clips, in physical units (cm, s) whatever the file's unit."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
+from elastyle.body import centimetres_per_unit, find_limbs
 from elastyle.motion import Motion
-from elastyle.skeleton import Skeleton
-from elastyle.types import BoolArray, FloatArray, IntArray
-
-CONTACT_HEIGHT_OF_LEG = 0.025  # a toe within 2.5 % of the leg length (2 cm here) of its ground level is down
-
-
-def centimetres_per_unit(skeleton: Skeleton) -> float:
-    """Guess the file's length unit from the rest height: metres, centimetres or inches (default cm)."""
-    height = skeleton.height()
-    if height < 5:
-        return 100.0
-    if 40 < height < 90:
-        return 2.54
-    return 1.0
-
-
-@dataclass(frozen=True)
-class Limbs:
-    """Joint indices: toes (F,), ankles (F,), hips (F,), and hands (H,) (end joints of arm chains)."""
-
-    toes: IntArray
-    ankles: IntArray
-    hips: IntArray
-    hands: IntArray
-
-
-def _deepest_descendant(skeleton: Skeleton, joint: int) -> int:
-    depth = {joint: 0}
-    for j in range(joint + 1, skeleton.num_joints):
-        if skeleton.parents[j] in depth:
-            depth[j] = depth[int(skeleton.parents[j])] + 1
-    return max(depth, key=lambda j: (depth[j], -j))
-
-
-def find_limbs(skeleton: Skeleton) -> Limbs:
-    partner = skeleton.mirror_pairs()
-    pelvis = skeleton.pelvis
-    legs = [c for c in skeleton.children(pelvis) if partner[c] != c]
-    toes = [_deepest_descendant(skeleton, leg) for leg in legs]
-    ankles = [int(skeleton.parents[t]) if skeleton.parents[t] != leg else t for t, leg in zip(toes, legs)]
-    spine = [c for c in skeleton.children(pelvis) if partner[c] == c]
-    hands: list[int] = []
-    if spine:
-        below_spine = {spine[0]}
-        for j in range(spine[0] + 1, skeleton.num_joints):
-            if skeleton.parents[j] in below_spine:
-                below_spine.add(j)
-        # arm roots: sided joints below the spine whose parent is a centre joint
-        roots = [
-            j
-            for j in sorted(below_spine)
-            if partner[j] != j and partner[skeleton.parents[j]] == skeleton.parents[j]
-        ]
-        hands = [_deepest_descendant(skeleton, r) for r in roots]
-    return Limbs(np.array(toes), np.array(ankles), np.array(legs), np.array(hands, dtype=np.int64))
-
-
-def leg_length(skeleton: Skeleton, limbs: Limbs) -> float:
-    rest = skeleton.rest_positions()
-    if len(limbs.toes) == 0:
-        return skeleton.height() / 2
-    return float(np.mean(np.linalg.norm(rest[limbs.hips] - rest[limbs.ankles], axis=-1)))
+from elastyle.types import BoolArray, FloatArray
 
 
 def foot_contacts(motion: Motion, positions: FloatArray | None = None) -> BoolArray:
-    """(T, F) True where a toe is within the contact height of the clip's ground level (its 5th percentile)."""
-    limbs = find_limbs(motion.skeleton)
-    positions = motion.positions() if positions is None else positions
-    threshold = CONTACT_HEIGHT_OF_LEG * leg_length(motion.skeleton, limbs)
-    toe_height = positions[:, limbs.toes, 1]
-    ground = np.percentile(toe_height, 5)
-    return toe_height - ground < threshold
+    """(T, F) True where a foot is planted: low and slow, with hysteresis (`cleanup.detect_contacts`)."""
+    from elastyle.cleanup import detect_contacts
+
+    del positions
+    return detect_contacts(motion)
 
 
 def foot_skating_cm_s(motion: Motion, positions: FloatArray | None = None) -> float:

@@ -42,11 +42,16 @@ class ClipRef:
     def read(self) -> tuple[Motion, BvhLayout]:
         if self.archive is None:
             return read_bvh(self.name)
+        return parse_bvh(self.data(), self.name)
+
+    def data(self) -> bytes:
+        """The file's raw bytes."""
         try:
-            data = _open_zip(self.archive, os.getpid()).read(self.member or "")
+            if self.archive is None:
+                return Path(self.name).read_bytes()
+            return _open_zip(self.archive, os.getpid()).read(self.member or "")
         except (KeyError, zipfile.BadZipFile, OSError) as error:
-            raise BvhError(self.name, f"cannot read from archive: {error}") from None
-        return parse_bvh(data, self.name)
+            raise BvhError(self.name, f"cannot read: {error}") from None
 
 
 @lru_cache(maxsize=8)

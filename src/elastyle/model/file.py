@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from elastyle.errors import ModelError
 from elastyle.body import smooth
+from elastyle.errors import ModelError
 from elastyle.features import FeatureSpec, RootPath
 from elastyle.io.files import write_bytes_atomic
 from elastyle.model.autoencoder import Autoencoder, AutoencoderWeights

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from elastyle.cleanup import adjust_root_speed, clean_feet, detect_contacts
 from elastyle.errors import ClipTooShortError, ElastyleError, SkeletonMismatchError
 from elastyle.mirror import mirror
 from elastyle.model.file import StyleModel, load_model
@@ -49,6 +50,8 @@ class TransferConfig:
     mirror_style: bool = True
     smooth_s: float = 0.0  # Gaussian low-pass of the decoded features, seconds (0 = the report's raw output)
     timing: str = "style"  # "content": warp the result back onto the content's timeline
+    cleanup: bool = True  # plant the feet: contacts pinned by two-joint leg IK
+    adjust_root: bool = False  # before that, move the root with the stance foot (the path may then drift)
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -265,11 +268,15 @@ def transfer(
     decoded = model.features.decode(features, root.sample(content_time), fps)
     if config.timing == "content":
         # the style's manner on the content's clock: output frame of each content frame, by the inverse map
-        decoded = decoded.sample(
-            np.interp(np.arange(working.num_frames), content_time, np.arange(num_output))
-        )
+        decoded = decoded.sample(np.interp(np.arange(working.num_frames), content_time, np.arange(num_output)))
     # the content's own skeleton (its offsets and End Sites), so the output drops into the content's rig
-    motion = Motion(content.skeleton, decoded.rotations, decoded.translations, fps).resample(content.fps)
+    motion = Motion(content.skeleton, decoded.rotations, decoded.translations, fps)
+    if config.cleanup:
+        contacts = detect_contacts(motion)
+        if config.adjust_root:
+            motion = adjust_root_speed(motion, contacts)
+        motion = clean_feet(motion, contacts)
+    motion = motion.resample(content.fps)
     explain = _explain(tracks, libraries, content_time, fps, config)
     return TransferResult(motion, explain)
 

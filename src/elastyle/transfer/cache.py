@@ -1,0 +1,91 @@
+"""An on-disk cache of encoded style libraries, keyed by the clips' bytes and the model.
+
+Encoding a long style library (features, mirrors, the encoder) is most of the cost of a short transfer
+against it; a second transfer against the same clips and model loads the latents instead. The cache
+lives in `$ELASTYLE_CACHE` or `~/.cache/elastyle`, as plain array archives (no pickle).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import os
+from pathlib import Path
+
+import numpy as np
+
+from elastyle.io.dataset import ClipRef
+from elastyle.io.files import write_bytes_atomic
+from elastyle.model.file import FORMAT_VERSION, StyleModel
+from elastyle.transfer.stylize import StyleLibrary, prepare_style
+from elastyle.transfer.whiten import LatentStats
+
+log = logging.getLogger(__name__)
+
+
+def cache_folder() -> Path:
+    return Path(os.environ.get("ELASTYLE_CACHE") or Path.home() / ".cache" / "elastyle") / "libraries"
+
+
+def model_fingerprint(model: StyleModel) -> str:
+    digest = hashlib.sha256()
+    weights = model.autoencoder.weights
+    for array in (
+        model.feature_mean,
+        model.feature_std,
+        model.features.reference_rotations,
+        weights.conv1,
+        weights.conv2,
+    ):
+        digest.update(np.ascontiguousarray(array).tobytes())
+    digest.update(repr((model.config, model.fps, model.skeleton.names)).encode())
+    return digest.hexdigest()
+
+
+def library_key(model: StyleModel, clips: list[ClipRef], mirror_style: bool) -> str:
+    digest = hashlib.sha256(f"v{FORMAT_VERSION}:{model_fingerprint(model)}:{mirror_style}".encode())
+    for clip in clips:
+        digest.update(clip.name.encode())
+        digest.update(hashlib.sha256(clip.data()).digest())
+    return digest.hexdigest()[:32]
+
+
+def load_library(
+    model: StyleModel, clips: list[ClipRef], mirror_style: bool, use_cache: bool = True
+) -> StyleLibrary:
+    """The encoded library of `clips`, from the cache when it holds them, else encoded (and cached)."""
+    path = cache_folder() / f"{library_key(model, clips, mirror_style)}.npz"
+    if use_cache and path.exists():
+        try:
+            with np.load(path, allow_pickle=False) as archive:
+                latents = archive["latents"]
+                names = [str(n) for n in archive["names"]]
+                library = StyleLibrary(
+                    names, [bool(m) for m in archive["mirrored"]], archive["clip_starts"], latents,
+                    LatentStats.of([latents[a:b] for a, b in _spans(archive["clip_starts"], len(latents))]),
+                )  # fmt: skip
+            log.debug("style library from cache %s", path)
+            return library
+        except (OSError, KeyError, ValueError):
+            log.debug("unreadable cache entry %s: encoding again", path)
+    motions = [clip.read()[0] for clip in clips]
+    library = prepare_style(model, motions, [c.name for c in clips], mirror_style)
+    if use_cache:
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            from io import BytesIO
+
+            buffer = BytesIO()
+            np.savez(
+                buffer, latents=library.latents, names=np.array(library.names), mirrored=np.array(library.mirrored),
+                clip_starts=library.clip_starts,
+            )  # fmt: skip
+            write_bytes_atomic(path, buffer.getvalue(), force=True)
+        except OSError as error:  # a read-only home is no reason to fail a transfer
+            log.debug("cannot cache the style library: %s", error)
+    return library
+
+
+def _spans(starts: np.ndarray, total: int) -> list[tuple[int, int]]:
+    ends = list(starts[1:]) + [total]
+    return [(int(a), int(b)) for a, b in zip(starts, ends)]

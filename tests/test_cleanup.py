@@ -1,0 +1,269 @@
+"""Foot contact cleanup: contacts on real walks, pinned feet with exact bones, smooth legs, other skeletons."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from elastyle.body import centimetres_per_unit, find_limbs
+from elastyle.cleanup import adjust_root_speed, clean_feet, detect_contacts, ground_level
+from elastyle.eval.metrics import foot_skating_cm_s, jerk
+from elastyle.io.bvh import parse_bvh
+from elastyle.io.dataset import ClipRef
+from elastyle.motion import Motion
+from elastyle.skeleton import Skeleton
+from elastyle.types import BoolArray, FloatArray
+from tests.conftest import THREE_CHANNEL_BVH, clip_named
+
+DRIFT_CM_S = np.array([15.0, 0.0, 20.0])  # added to the pelvis: 25 cm/s of sliding on every planted foot
+
+
+def contact_skating_cm_s(motion: Motion, contacts: BoolArray) -> float:
+    """Mean horizontal toe speed (cm/s) over frame steps where the foot is in contact at both ends.
+
+    Unlike `foot_skating_cm_s`, swing feet passing low over the ground at full speed do not count.
+    """
+    toes = motion.positions()[:, find_limbs(motion.skeleton).toes][..., [0, 2]]  # (T, F, 2)
+    speed_cm_s = (
+        np.linalg.norm(np.diff(toes, axis=0), axis=-1) * motion.fps * centimetres_per_unit(motion.skeleton)
+    )
+    return float(speed_cm_s[contacts[1:] & contacts[:-1]].mean())
+
+
+def knee_angles_deg(motion: Motion) -> FloatArray:
+    """(T, F) interior angle at each knee between thigh and shin."""
+    skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
+    knees = skeleton.parents[limbs.ankles]
+    positions = motion.positions()
+    thigh = positions[:, skeleton.parents[knees]] - positions[:, knees]
+    shin = positions[:, limbs.ankles] - positions[:, knees]
+    cosine = np.sum(thigh * shin, -1) / np.linalg.norm(thigh, axis=-1) / np.linalg.norm(shin, axis=-1)
+    return np.degrees(np.arccos(np.clip(cosine, -1, 1)))
+
+
+def bone_lengths(motion: Motion) -> FloatArray:
+    """(T, B) distances from each joint below the pelvis's translation to its parent."""
+    skeleton = motion.skeleton
+    joints = np.array([j for j in range(1, skeleton.num_joints) if j != skeleton.pelvis])
+    positions = motion.positions()
+    return np.linalg.norm(positions[:, joints] - positions[:, skeleton.parents[joints]], axis=-1)
+
+
+def with_drift(motion: Motion, speed_cm_s: FloatArray = DRIFT_CM_S) -> Motion:
+    translations = motion.translations.copy()
+    time_s = np.arange(motion.num_frames)[:, None] / motion.fps  # (T, 1)
+    translations[:, motion.skeleton.pelvis] += time_s * speed_cm_s / centimetres_per_unit(motion.skeleton)
+    return Motion(motion.skeleton, motion.rotations, translations, motion.fps)
+
+
+def with_stretched_root_path(motion: Motion, scale: float) -> Motion:
+    """The pelvis covers `scale` times its horizontal path in the same time: planted feet slide."""
+    translations = motion.translations.copy()
+    pelvis = translations[:, motion.skeleton.pelvis]  # (T, 3) view
+    pelvis[:, [0, 2]] = pelvis[0, [0, 2]] + scale * (pelvis[:, [0, 2]] - pelvis[0, [0, 2]])
+    return Motion(motion.skeleton, motion.rotations, translations, motion.fps)
+
+
+def path_length(motion: Motion) -> float:
+    pelvis = motion.positions()[:, motion.skeleton.pelvis][:, [0, 2]]
+    return float(np.linalg.norm(np.diff(pelvis, axis=0), axis=-1).sum())
+
+
+def check_cleaned(before: Motion, after: Motion) -> None:
+    """Same frames, bones exact, no toe under the input's ground, all finite."""
+    assert after.num_frames == before.num_frames and after.fps == before.fps
+    assert after.skeleton is before.skeleton
+    assert np.all(np.isfinite(after.rotations)) and np.all(np.isfinite(after.translations))
+    np.testing.assert_allclose(bone_lengths(after), bone_lengths(before), atol=1e-6)
+    toes = find_limbs(before.skeleton).toes
+    assert after.positions()[:, toes, 1].min() >= ground_level(before) - 1e-6
+
+
+def test_contacts_on_a_real_walk(walk_clip: ClipRef) -> None:
+    motion = walk_clip.read()[0]
+    contacts = detect_contacts(motion)
+    assert contacts.shape == (motion.num_frames, 2) and contacts.dtype == bool
+    duty = contacts.mean(axis=0)
+    assert np.all((duty > 0.45) & (duty < 0.8)), duty
+    for foot in range(2):  # a step every second or so: several separate contacts per foot
+        starts = np.flatnonzero(np.diff(contacts[:, foot].astype(int)) == 1)
+        assert len(starts) >= 3
+    assert np.any(contacts.all(axis=1)) and contacts.any(axis=1).all()  # double support, never airborne
+    # the same walk with sliding feet has the same contacts, nearly; in metres, exactly the same
+    assert np.mean(detect_contacts(with_drift(motion)) == contacts) > 0.9
+    skeleton = motion.skeleton
+    in_metres = Skeleton(skeleton.names, skeleton.parents, skeleton.offsets / 100, skeleton.end_sites / 100)
+    metres = Motion(in_metres, motion.rotations, motion.translations / 100, motion.fps)
+    np.testing.assert_array_equal(detect_contacts(metres), contacts)
+    np.testing.assert_allclose(
+        clean_feet(metres).positions() * 100, clean_feet(motion).positions(), atol=1e-6
+    )
+
+
+def test_contacts_of_a_run_are_short(dataset_clips: list[ClipRef]) -> None:
+    run = clip_named(dataset_clips, "dataset-2_run_normal_005").read()[0]
+    contacts = detect_contacts(run)
+    assert np.all(contacts.mean(axis=0) < 0.4) and contacts.any(axis=0).all()
+    assert not contacts.any(axis=1).all()  # flight phases
+
+
+def test_clean_feet_pins_sliding_feet_of_a_real_walk(walk_clip: ClipRef) -> None:
+    drifted = with_drift(walk_clip.read()[0])
+    contacts = detect_contacts(drifted)
+    cleaned = clean_feet(drifted, contacts)
+    check_cleaned(drifted, cleaned)
+    before, after = contact_skating_cm_s(drifted, contacts), contact_skating_cm_s(cleaned, contacts)
+    assert before > 20 and after <= 8.0, (before, after)
+    # the metric's own contacts also count swing feet passing low at full speed, so it cannot reach ~0
+    assert foot_skating_cm_s(cleaned) < foot_skating_cm_s(drifted)
+    fps = drifted.fps
+    assert jerk(cleaned.positions(), fps) <= 1.1 * jerk(drifted.positions(), fps)
+    knee_steps_before = np.abs(np.diff(knee_angles_deg(drifted), axis=0)).max()
+    knee_steps_after = np.abs(np.diff(knee_angles_deg(cleaned), axis=0)).max()
+    assert knee_steps_after <= knee_steps_before + 6.0, (knee_steps_before, knee_steps_after)
+
+
+def test_root_follows_the_stride_then_feet_are_pinned(walk_clip: ClipRef) -> None:
+    motion = walk_clip.read()[0]
+    stretched = with_stretched_root_path(motion, 1.25)
+    contacts = detect_contacts(stretched)
+    moved = adjust_root_speed(stretched, contacts)
+    assert np.array_equal(moved.rotations, stretched.rotations)
+    assert contact_skating_cm_s(moved, contacts) < 0.3 * contact_skating_cm_s(stretched, contacts)
+    assert path_length(moved) == pytest.approx(path_length(motion), rel=0.1)
+    cleaned = clean_feet(moved, contacts)
+    check_cleaned(stretched, cleaned)
+    assert contact_skating_cm_s(cleaned, contacts) <= 2.0
+    assert jerk(cleaned.positions(), motion.fps) <= 1.05 * jerk(stretched.positions(), motion.fps)
+
+
+def test_held_out_walks_with_sliding(dataset_clips: list[ClipRef]) -> None:
+    for stem in ["walk_normal_010", "walk_active_015", "walk_elderly_005", "walk_exhausted_010"]:
+        drifted = with_drift(clip_named(dataset_clips, f"dataset-2_{stem}").read()[0])
+        contacts = detect_contacts(drifted)
+        cleaned = clean_feet(adjust_root_speed(drifted, contacts), contacts)
+        check_cleaned(drifted, cleaned)
+        assert contact_skating_cm_s(cleaned, contacts) <= 8.0, stem
+        assert foot_skating_cm_s(cleaned) < foot_skating_cm_s(drifted), stem
+        assert jerk(cleaned.positions(), drifted.fps) <= 1.1 * jerk(drifted.positions(), drifted.fps), stem
+
+
+def test_standing_still_changes_nothing(walk_clip: ClipRef) -> None:
+    motion = walk_clip.read()[0]
+    hold = np.zeros(60, dtype=np.int64)  # frame 0, 60 times
+    still = Motion(motion.skeleton, motion.rotations[hold], motion.translations[hold], motion.fps)
+    contacts = detect_contacts(still)
+    assert contacts.all()
+    for cleaned in (clean_feet(still), clean_feet(adjust_root_speed(still, contacts), contacts)):
+        np.testing.assert_allclose(cleaned.rotations, still.rotations, atol=1e-6)
+        np.testing.assert_allclose(cleaned.translations, still.translations, atol=1e-6)
+
+
+def test_single_frame_and_bad_contacts(walk_clip: ClipRef) -> None:
+    motion = walk_clip.read()[0].slice(0, 1)
+    contacts = detect_contacts(motion)
+    assert contacts.shape == (1, 2)
+    check_cleaned(motion, clean_feet(motion))
+    np.testing.assert_array_equal(adjust_root_speed(motion, contacts).translations, motion.translations)
+    with pytest.raises(ValueError, match="contacts must be"):
+        clean_feet(motion, np.ones((2, 2), dtype=bool))
+
+
+def synthetic_walk_bvh(num_frames: int = 60, fps: float = 30.0, speed_m_s: float = 1.0) -> str:
+    """A 3-channel BVH in metres, other joint names: planted feet (60 % of a 1 s cycle) swing 8 cm high.
+
+    Hip and knee angles come from planar two-joint IK towards the foot path; feet stay level.
+    """
+    thigh_m, shin_m, hip_height_m, ankle_height_m, stance = 0.45, 0.45, 0.86, 0.08, 0.6
+    lines = []
+    for frame in range(num_frames):
+        time_s = frame / fps
+        root_z = speed_m_s * time_s
+        row = [0.0, hip_height_m, root_z, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]  # hip (6 channels), spine
+        for phase_offset in (0.0, 0.5):  # left, right
+            cycle = time_s + phase_offset
+            stance_start_s = np.floor(cycle) - phase_offset
+            foot_z = speed_m_s * stance_start_s + speed_m_s * stance / 2
+            foot_y = ankle_height_m
+            swing = (cycle % 1.0 - stance) / (1 - stance)
+            if swing > 0:
+                foot_z += speed_m_s * swing * swing * (3 - 2 * swing)
+                foot_y += 0.08 * np.sin(np.pi * swing)
+            forward, down = foot_z - root_z, foot_y - (hip_height_m - 0.05)
+            distance = np.hypot(forward, down)
+            bend = np.pi - np.arccos((thigh_m**2 + shin_m**2 - distance**2) / (2 * thigh_m * shin_m))
+            # Xrotation turns -Y towards -Z: a leg at angle a points (z, y) = (-sin a, -cos a)
+            knee_offset = np.arctan2(shin_m * np.sin(bend), thigh_m + shin_m * np.cos(bend))
+            hip_angle = np.arctan2(-forward, -down) - knee_offset
+            for angle in (hip_angle, bend, -hip_angle - bend, 0.0):  # thigh, shin, foot, toe
+                row += [0.0, float(np.degrees(angle)), 0.0]
+        lines.append(" ".join(f"{value:.6f}" for value in row))
+    channels = "CHANNELS 3 Zrotation Xrotation Yrotation"
+    legs = ""
+    for side, x in (("l", 0.1), ("r", -0.1)):
+        legs += f"""
+  JOINT {side}_thigh
+  {{
+    OFFSET {x} -0.05 0
+    {channels}
+    JOINT {side}_shin
+    {{
+      OFFSET 0 -{thigh_m} 0
+      {channels}
+      JOINT {side}_foot
+      {{
+        OFFSET 0 -{shin_m} 0
+        {channels}
+        JOINT {side}_toe
+        {{
+          OFFSET 0 -0.06 0.12
+          {channels}
+          End Site
+          {{
+            OFFSET 0 0 0.05
+          }}
+        }}
+      }}
+    }}
+  }}"""
+    header = f"""HIERARCHY
+ROOT hip
+{{
+  OFFSET 0 0 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT spine
+  {{
+    OFFSET 0 0.1 0
+    {channels}
+    End Site
+    {{
+      OFFSET 0 0.4 0
+    }}
+  }}{legs}
+}}
+MOTION
+Frames: {num_frames}
+Frame Time: {1 / fps:.7f}
+"""
+    return header + "\n".join(lines) + "\n"
+
+
+def test_three_channel_skeleton_in_metres() -> None:
+    motion = parse_bvh(synthetic_walk_bvh().encode(), "synthetic.bvh")[0]
+    assert centimetres_per_unit(motion.skeleton) == 100.0
+    contacts = detect_contacts(motion)
+    assert np.all(np.abs(contacts.mean(axis=0) - 0.6) < 0.15), contacts.mean(axis=0)
+    assert contact_skating_cm_s(motion, contacts) < 1.0  # built with planted feet
+    assert np.abs(clean_feet(motion, contacts).positions() - motion.positions()).max() < 0.01  # < 1 cm
+    sliding = with_stretched_root_path(motion, 1.3)
+    assert contact_skating_cm_s(sliding, contacts) > 20
+    moved = adjust_root_speed(sliding, contacts)
+    for cleaned in (clean_feet(sliding, contacts), clean_feet(moved, contacts)):
+        check_cleaned(sliding, cleaned)
+        assert contact_skating_cm_s(cleaned, contacts) <= 1.0  # exact heel and toe paths: pinned exactly
+
+
+def test_two_bone_legs_are_left_alone() -> None:
+    motion = parse_bvh(THREE_CHANNEL_BVH.encode(), "tiny.bvh")[0]  # hip -> leg -> foot: no knee to bend
+    cleaned = clean_feet(motion)
+    np.testing.assert_array_equal(cleaned.rotations, motion.rotations)
