@@ -91,7 +91,9 @@ def test_transition_and_blend_of_two_styles(
     slow_style = clip_named(dataset_clips, "dataset-2_walk_masculine_010").read()[0]
     raw = TransferConfig(cleanup=False)
     only_first = transfer(content, style_clip, model, raw).motion
-    change = transfer(content, style_clip, model, raw, second_style=slow_style, second_weight="3:0,5:1").motion
+    change = transfer(
+        content, style_clip, model, raw, second_style=slow_style, second_weight="3:0,5:1"
+    ).motion
     # before the change begins, the output is the first style's
     np.testing.assert_allclose(change.positions()[:60], only_first.positions()[:60], atol=1e-3)
     blend = transfer(content, style_clip, model, second_style=slow_style, second_weight=0.5).motion

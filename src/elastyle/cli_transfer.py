@@ -13,9 +13,6 @@ from elastyle.errors import ElastyleError, OutputError, UsageError
 log = logging.getLogger("elastyle")
 
 
-
-
-
 def add_transfer_command(commands: Any) -> None:
     parser = commands.add_parser(
         "transfer",
@@ -75,8 +72,11 @@ def add_transfer_command(commands: Any) -> None:
         help="style: the style's pace (default); content: warped back onto the content's clock",
     )
     parser.add_argument("--no-cleanup", action="store_true", help="the raw result: no foot contact clean-up")
-    parser.add_argument("--adjust-root", action="store_true",
-                        help="move the root with the stance foot before the clean-up (the path may drift from the content's)")
+    parser.add_argument(
+        "--adjust-root",
+        action="store_true",
+        help="move the root with the stance foot before the clean-up (the path may drift from the content's)",
+    )
     parser.add_argument("--force", action="store_true", help="overwrite existing output files")
     parser.set_defaults(run=run_transfer)
 

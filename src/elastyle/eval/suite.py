@@ -24,6 +24,8 @@ log = logging.getLogger(__name__)
 
 VARIANTS: dict[str, TransferConfig] = {
     "elastic (sequential)": TransferConfig(),
+    "elastic, raw (no foot clean-up)": TransferConfig(cleanup=False),
+    "elastic, --timing content": TransferConfig(timing="content"),
     "elastic, fixed placement (report literal)": TransferConfig(placement="fixed"),
     "rigid": TransferConfig(method="rigid"),
     "wct": TransferConfig(method="wct"),

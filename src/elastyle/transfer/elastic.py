@@ -32,13 +32,17 @@ class Patch:
     similarity: float
 
 
-def sample_frames(latents: FloatArray, start: float, length: float, count: int) -> FloatArray:
-    """`count` frames (count, Z) evenly covering latents[start : start + length], linear, edge-held."""
-    positions = start + (np.arange(count) + 0.5) * (length / count) - 0.5
-    positions = np.clip(positions, 0, latents.shape[0] - 1)
-    lower = np.floor(positions).astype(np.int64)
+def sample_windows(latents: FloatArray, starts: FloatArray, lengths: FloatArray, count: int) -> FloatArray:
+    """For each of Q spans, `count` frames evenly covering latents[start : start + length]: (Q, count, Z).
+
+    Linear between frames, held at the clip's ends. starts, lengths: (Q,) in frames.
+    """
+    starts = np.asarray(starts, dtype=np.float64)[:, None]
+    lengths = np.asarray(lengths, dtype=np.float64)[:, None]
+    positions = np.clip(starts + (np.arange(count) + 0.5) * (lengths / count) - 0.5, 0, latents.shape[0] - 1)
+    lower = np.floor(positions).astype(np.int64)  # (Q, count)
     upper = np.minimum(lower + 1, latents.shape[0] - 1)
-    weight = (positions - lower)[:, None]
+    weight = (positions - lower)[..., None]
     return (1 - weight) * latents[lower] + weight * latents[upper]
 
 
@@ -83,8 +87,8 @@ def search_sequential(
     patches: list[Patch] = []
     cursor = 0.0
     while cursor < num_frames or not patches:
-        queries = np.stack(
-            [sample_frames(white_content, cursor, float(n), patch_frames) for n in source_lengths]
+        queries = sample_windows(
+            white_content, np.full(len(source_lengths), cursor), source_lengths, patch_frames
         )
         index, similarity = windows.best(queries)
         choice = int(np.argmax(similarity))
@@ -104,9 +108,7 @@ def search_fixed(
     patches = []
     for i in range(num_patches):
         centre = (i + 0.5) * patch_frames
-        queries = np.stack(
-            [sample_frames(white_content, centre - n / 2, float(n), patch_frames) for n in source_lengths]
-        )
+        queries = sample_windows(white_content, centre - source_lengths / 2, source_lengths, patch_frames)
         index, similarity = windows.best(queries)
         choice = int(np.argmax(similarity))
         # placed at the content's grid: consumes exactly L content frames whatever the stretch
@@ -124,8 +126,7 @@ def _half_shifted(white_content: FloatArray, windows: StyleWindows, patches: lis
     ]
     if not spans:
         return []
-    queries = np.stack(
-        [sample_frames(white_content, start, length, windows.patch_frames) for start, length in spans]
-    )
+    starts, lengths = np.array(spans).T
+    queries = sample_windows(white_content, starts, lengths, windows.patch_frames)
     index, similarity = windows.best(queries)
     return [Patch(s, n, int(i), float(v)) for (s, n), i, v in zip(spans, index, similarity)]

@@ -268,7 +268,9 @@ def transfer(
     decoded = model.features.decode(features, root.sample(content_time), fps)
     if config.timing == "content":
         # the style's manner on the content's clock: output frame of each content frame, by the inverse map
-        decoded = decoded.sample(np.interp(np.arange(working.num_frames), content_time, np.arange(num_output)))
+        decoded = decoded.sample(
+            np.interp(np.arange(working.num_frames), content_time, np.arange(num_output))
+        )
     # the content's own skeleton (its offsets and End Sites), so the output drops into the content's rig
     motion = Motion(content.skeleton, decoded.rotations, decoded.translations, fps)
     if config.cleanup:

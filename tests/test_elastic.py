@@ -1,0 +1,55 @@
+"""The patch search against a plain loop over every style window in float64."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from elastyle.transfer.elastic import StyleWindows, sample_windows, search_sequential
+
+
+def _brute_force_best(library: np.ndarray, valid_starts: list[int], query: np.ndarray) -> tuple[int, float]:
+    best, best_similarity = -1, -np.inf
+    flat_query = query.ravel() / np.linalg.norm(query)
+    for start in valid_starts:
+        window = library[start : start + query.shape[0]].ravel()
+        similarity = float(flat_query @ window / np.linalg.norm(window))
+        if similarity > best_similarity:
+            best, best_similarity = start, similarity
+    return best, best_similarity
+
+
+def test_batched_float32_search_agrees_with_float64_loop() -> None:
+    rng = np.random.default_rng(0)
+    clip_lengths = [70, 45, 90]  # a library of three clips: no window may straddle two of them
+    library = rng.standard_normal((sum(clip_lengths), 8))
+    starts = np.cumsum([0] + clip_lengths[:-1])
+    patch = 12
+    windows = StyleWindows(library, starts, patch)
+    valid = [s + k for s, n in zip(starts, clip_lengths) for k in range(n - patch + 1)]
+    assert np.flatnonzero(windows.valid).tolist() == valid
+    content = rng.standard_normal((100, 8))
+    queries = sample_windows(content, np.arange(0, 80, 7.0), np.full(12, 14.0), patch)
+    index, similarity = windows.best(queries)
+    for q, query in enumerate(queries):
+        expected, expected_similarity = _brute_force_best(library, valid, query)
+        assert index[q] == expected
+        assert abs(similarity[q] - expected_similarity) < 1e-5
+
+
+def test_sequential_search_consumes_the_content_at_the_matched_stretch() -> None:
+    rng = np.random.default_rng(1)
+    # the style is the content played 1.25 times faster: the search should read about 1.25 L per patch
+    phase = np.arange(400) * 2 * np.pi / 40
+    content = np.stack(
+        [np.sin(phase), np.cos(phase), np.sin(2 * phase)], axis=1
+    ) + 0.01 * rng.standard_normal((400, 3))
+    style_phase = np.arange(300) * 2 * np.pi / 32
+    style = np.stack([np.sin(style_phase), np.cos(style_phase), np.sin(2 * style_phase)], axis=1)
+    windows = StyleWindows(style, np.array([0]), 32)
+    patches, shifted = search_sequential(content, windows, np.arange(24, 41))
+    stretches = [p.content_frames / 32 for p in patches[:-1]]
+    assert abs(float(np.median(stretches)) - 1.25) < 0.07
+    assert patches[0].content_start == 0
+    for a, b in zip(patches, patches[1:]):
+        assert b.content_start == a.content_start + a.content_frames
+    assert len(shifted) == len(patches) - 1
