@@ -17,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from elastyle.types import BoolArray, Float32Array, FloatArray, IntArray
 
@@ -32,7 +33,7 @@ class Patch:
     similarity: float
 
 
-def sample_windows(latents: FloatArray, starts: FloatArray, lengths: FloatArray, count: int) -> FloatArray:
+def sample_windows(latents: FloatArray, starts: npt.ArrayLike, lengths: npt.ArrayLike, count: int) -> FloatArray:
     """For each of Q spans, `count` frames evenly covering latents[start : start + length]: (Q, count, Z).
 
     Linear between frames, held at the clip's ends. starts, lengths: (Q,) in frames.
