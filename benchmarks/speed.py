@@ -67,7 +67,7 @@ class SearchTimer:
             started = time.perf_counter()
             result = timer.original(windows, queries)
             timer.seconds += time.perf_counter() - started
-            timer.shapes.append((queries.shape[0], windows.unit.shape[1], windows.unit.shape[0]))
+            timer.shapes.append((queries.shape[0], queries.shape[1] * queries.shape[2], windows.num_windows))
             return result
 
         elastic.StyleWindows.best = timed  # type: ignore[method-assign]

@@ -128,3 +128,33 @@ def test_model_with_other_skeleton_lists_the_joints(three_channel_bvh: Path) -> 
     motion, _ = read_bvh(three_channel_bvh)
     with pytest.raises(SkeletonMismatchError, match="only in the model: joint_Root, Hips"):
         load_model().check_clip(motion, "tiny_xyz.bvh")
+
+
+def test_training_works_on_another_skeleton(tmp_path: Path, three_channel_bvh: Path) -> None:
+    """A 3-channel skeleton of another naming scheme: train a few steps, then transfer with the model."""
+    from elastyle import write_bvh
+    from elastyle.train import TrainConfig, train
+    from elastyle.transfer.stylize import transfer
+
+    motion, layout = read_bvh(three_channel_bvh)
+    swing = np.sin(np.arange(90) / 6.0)[:, None]  # (T, 1) a leg swing at about 0.8 Hz
+    rotations = np.zeros((90, motion.skeleton.num_joints, 3))
+    rotations[:, 2, 0] = 0.5 * swing[:, 0]
+    rotations[:, 4, 0] = -0.5 * swing[:, 0]
+    translations = np.repeat(motion.translations[:1], 90, axis=0)
+    translations[:, 0, 2] = np.arange(90) * 0.5  # walking forward along +Z
+    for take in range(3):
+        clip = type(motion)(motion.skeleton, rotations * (1 + 0.2 * take), translations, 30.0)
+        write_bvh(tmp_path / f"walk_{take}.bvh", clip, layout)
+    model = train(
+        [str(tmp_path / "*.bvh")],
+        str(tmp_path / "own.npz"),
+        TrainConfig(steps=3, window_s=2.0),
+        progress=False,
+    )
+    assert model.skeleton.names == motion.skeleton.names
+    loaded = load_model(tmp_path / "own.npz")
+    style, _ = read_bvh(tmp_path / "walk_2.bvh")
+    content, _ = read_bvh(tmp_path / "walk_0.bvh")
+    out = transfer(content, style, loaded).motion
+    assert out.skeleton.names == content.skeleton.names and np.all(np.isfinite(out.rotations))

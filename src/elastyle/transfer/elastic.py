@@ -33,7 +33,9 @@ class Patch:
     similarity: float
 
 
-def sample_windows(latents: FloatArray, starts: npt.ArrayLike, lengths: npt.ArrayLike, count: int) -> FloatArray:
+def sample_windows(
+    latents: FloatArray, starts: npt.ArrayLike, lengths: npt.ArrayLike, count: int
+) -> FloatArray:
     """For each of Q spans, `count` frames evenly covering latents[start : start + length]: (Q, count, Z).
 
     Linear between frames, held at the clip's ends. starts, lengths: (Q,) in frames.
@@ -48,33 +50,50 @@ def sample_windows(latents: FloatArray, starts: npt.ArrayLike, lengths: npt.Arra
 
 
 class StyleWindows:
-    """Every L-frame window of a whitened style library, unit-normalised for cosine similarity.
+    """Every L-frame window of a whitened style library (stride 1), for cosine similarity.
+
+    The windows are never materialised (an (N, L*Z) matrix would be L times the library): a query's
+    dot product with window n is the sum over its frames k of frame products q_k . s_(n+k), so one
+    matrix product of the query frames with the library's frames, then L shifted additions, gives all
+    windows at once. The library is processed in chunks of frames, so memory stays bounded.
 
     valid: (N,) False for windows that would cross from one library clip into the next.
     """
 
+    CHUNK_FRAMES = 16384
+
     def __init__(self, white_library: FloatArray, clip_starts: IntArray, patch_frames: int) -> None:
-        total, width = white_library.shape
+        total = white_library.shape[0]
         self.patch_frames = patch_frames
-        num_windows = total - patch_frames + 1
-        windows = np.lib.stride_tricks.sliding_window_view(
-            white_library.astype(np.float32), patch_frames, axis=0
-        )
-        flat = windows.transpose(0, 2, 1).reshape(num_windows, patch_frames * width)  # (N, L*Z)
-        norms = np.linalg.norm(flat, axis=1, keepdims=True)
-        self.unit: Float32Array = flat / np.maximum(norms, 1e-8)
+        self.frames: Float32Array = np.ascontiguousarray(white_library, dtype=np.float32)  # (T_s, Z)
+        self.num_windows = max(total - patch_frames + 1, 0)
+        energy = np.concatenate([[0.0], np.cumsum(np.sum(white_library.astype(np.float64) ** 2, axis=1))])
+        self.norms = np.sqrt(np.maximum(energy[patch_frames:] - energy[:-patch_frames], 0.0))  # (N,)
         ends = np.append(clip_starts[1:], total)
-        valid = np.zeros(num_windows, dtype=bool)
+        valid = np.zeros(self.num_windows, dtype=bool)
         for start, end in zip(clip_starts, ends):
             valid[start : max(start, end - patch_frames + 1)] = True
         self.valid: BoolArray = valid
 
+    def similarities(self, queries: FloatArray) -> Float32Array:
+        """Cosine similarity (Q, N) of queries (Q, L, Z) with every window; -inf where a window is invalid."""
+        count, length, width = queries.shape
+        flat = queries.reshape(count, -1)
+        unit = (flat / np.maximum(np.linalg.norm(flat, axis=1, keepdims=True), 1e-8)).astype(np.float32)
+        query_frames = unit.reshape(count * length, width)  # (Q*L, Z)
+        dots = np.zeros((count, self.num_windows), dtype=np.float32)
+        for first in range(0, self.num_windows, self.CHUNK_FRAMES):
+            last = min(first + self.CHUNK_FRAMES, self.num_windows)
+            products = (query_frames @ self.frames[first : last + length - 1].T).reshape(count, length, -1)
+            for k in range(length):  # window n's frame k is library frame n + k
+                dots[:, first:last] += products[:, k, k : k + last - first]
+        similarity = dots / np.maximum(self.norms, 1e-8).astype(np.float32)
+        similarity[:, ~self.valid] = -np.inf
+        return similarity
+
     def best(self, queries: FloatArray) -> tuple[IntArray, FloatArray]:
         """For queries (Q, L, Z): the best window index (Q,) and its cosine similarity (Q,)."""
-        flat = queries.reshape(queries.shape[0], -1).astype(np.float32)
-        flat /= np.maximum(np.linalg.norm(flat, axis=1, keepdims=True), 1e-8)
-        similarity = flat @ self.unit.T  # (Q, N)
-        similarity[:, ~self.valid] = -np.inf
+        similarity = self.similarities(queries)
         index = np.argmax(similarity, axis=1)
         return index, similarity[np.arange(len(index)), index].astype(np.float64)
 
