@@ -67,6 +67,25 @@ def test_transfer_batch_into_folder(
     ]
 
 
+def test_batch_reports_a_bad_clip_and_finishes_the_others(
+    walk: str, style: str, dataset_clips: list[ClipRef], tmp_path: Path
+) -> None:
+    bad = tmp_path / "bad.bvh"
+    bad.write_text(THREE_CHANNEL_BVH)
+    second = _member(clip_named(dataset_clips, "dataset-2_walk_normal_010"))
+    out = tmp_path / "batch"
+    result = run("transfer", walk, str(bad), second, "--style", style, "-o", f"{out}/")
+    assert result.returncode == 1
+    assert [line for line in result.stderr.splitlines() if "error" in line] == [
+        f"elastyle: error: {bad}: skeleton differs from the model (only in the model: joint_Root, Hips, Spine, Chest, "
+        "Neck, Head, Shoulder_L, UpperArm_L ...; only in this clip: pelvis, spine, LeftLeg, LeftFoot, RightLeg, RightFoot)"
+    ]
+    assert sorted(p.name for p in out.iterdir()) == [
+        "dataset-2_walk_normal_005.bvh",
+        "dataset-2_walk_normal_010.bvh",
+    ]
+
+
 def test_transfer_transition_and_blend(
     walk: str, style: str, dataset_clips: list[ClipRef], tmp_path: Path
 ) -> None:

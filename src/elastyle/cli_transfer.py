@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -89,7 +91,11 @@ def _outputs(args: argparse.Namespace) -> list[Path]:
     if len(contents) == 1 and not (args.output.endswith(("/", "\\")) or output.is_dir()):
         return [check_output_path(output, force=args.force, inputs=tuple(contents))]
     if not output.is_dir():
-        raise OutputError(f"{output}: several content clips need an existing output folder")
+        if not output.parent.is_dir():
+            raise OutputError(
+                f"{output}: several content clips need an output folder, and {output.parent} does not exist"
+            )
+        output.mkdir()
     targets = [output / (Path(c).stem + ".bvh") for c in contents]
     if len(set(targets)) != len(targets):
         raise OutputError(f"{output}: two content clips share a file name")
@@ -97,13 +103,12 @@ def _outputs(args: argparse.Namespace) -> list[Path]:
 
 
 def run_transfer(args: argparse.Namespace) -> int:
-    from elastyle.io.bvh import write_bvh
-    from elastyle.io.dataset import find_clips, read_clip
-    from elastyle.io.files import check_output_path, write_text_atomic
+    from elastyle.io.dataset import find_clips
+    from elastyle.io.files import check_output_path
     from elastyle.model.file import load_model
     from elastyle.transfer.cache import cache_folder, library_key, load_library
     from elastyle.transfer.schedule import Schedule
-    from elastyle.transfer.stylize import TransferConfig, transfer
+    from elastyle.transfer.stylize import TransferConfig
 
     if args.then_style and args.blend_style:
         raise _usage("give --then-style or --blend-style, not both")
@@ -159,36 +164,80 @@ def run_transfer(args: argparse.Namespace) -> int:
         second = library(args.blend_style)
         second_weight = Schedule.constant(args.blend)
 
+    job = _Job(style, model, config, strength, second, second_weight, args.force, args.explain)
+    if len(args.content) == 1:
+        _transfer_one(job, args.content[0], targets[0])
+        return 0
+    return _transfer_batch(job, args.content, targets)
+
+
+@dataclass(frozen=True)
+class _Job:
+    """Everything a content clip's transfer needs besides the clip: shared by the batch's workers."""
+
+    style: Any
+    model: Any
+    config: Any
+    strength: Any
+    second: Any
+    second_weight: Any
+    force: bool
+    explain: str | None
+
+
+def _transfer_one(job: _Job, content_spec: str, target: Path) -> None:
+    from elastyle.io.bvh import write_bvh
+    from elastyle.io.dataset import read_clip
+    from elastyle.io.files import write_text_atomic
+    from elastyle.transfer.stylize import transfer
+
+    motion, layout = read_clip(content_spec)
+    result = transfer(
+        motion, job.style, job.model, job.config, strength=job.strength, second_style=job.second,
+        second_weight=job.second_weight, content_name=content_spec,
+    )  # fmt: skip
+    write_bvh(target, result.motion, layout, force=job.force)
+    if job.explain:
+        explain = dict(result.explain, content=content_spec, output=str(target))
+        write_text_atomic(job.explain, json.dumps(explain, indent=1), force=job.force)
+    log.info("wrote %s (%d frames, %.2f s; content %.2f s)", target, result.motion.num_frames,
+             result.motion.duration_s, motion.duration_s)  # fmt: skip
+
+
+_WORKER_JOB: list[_Job] = []
+
+
+def _worker_start(job: _Job) -> None:
+    _WORKER_JOB[:] = [job]
+    logging.getLogger("elastyle").setLevel(logging.WARNING)
+
+
+def _worker_transfer(task: tuple[str, Path]) -> str | None:
+    """One batch item in a worker process: None, or the one-line error."""
+    try:
+        _transfer_one(_WORKER_JOB[0], *task)
+        return None
+    except ElastyleError as error:
+        return str(error)
+
+
+def _transfer_batch(job: _Job, contents: list[str], targets: list[Path]) -> int:
+    """Many content clips with the style encoded once, on every core; one line per failed clip."""
+    import multiprocessing
+    import os
+    from concurrent.futures import ProcessPoolExecutor
+
+    workers = max(1, min(len(contents), os.cpu_count() or 1))
+    context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
     failures = 0
-    for content_spec, target in zip(args.content, targets):
-        try:
-            motion, layout = read_clip(content_spec)
-            result = transfer(
-                motion,
-                style,
-                model,
-                config,
-                strength=strength,
-                second_style=second,
-                second_weight=second_weight,
-                content_name=content_spec,
-            )
-            write_bvh(target, result.motion, layout, force=args.force)
-            if args.explain:
-                explain = dict(result.explain, content=content_spec, output=str(target))
-                write_text_atomic(args.explain, json.dumps(explain, indent=1), force=args.force)
-            log.info(
-                "wrote %s (%d frames, %.2f s; content %.2f s)",
-                target,
-                result.motion.num_frames,
-                result.motion.duration_s,
-                motion.duration_s,
-            )
-        except ElastyleError as error:
-            if len(args.content) == 1:
-                raise
-            failures += 1
-            log.error("elastyle: error: %s", error)
+    with ProcessPoolExecutor(workers, mp_context=context, initializer=_worker_start, initargs=(job,)) as pool:
+        results = pool.map(_worker_transfer, list(zip(contents, targets)))
+        for done, (content, error) in enumerate(zip(contents, results), start=1):
+            if error is not None:
+                failures += 1
+                print(f"elastyle: error: {error}", file=sys.stderr)
+            log.info("[%d/%d] %s%s", done, len(contents), content, " failed" if error else "")
+    log.info("%d of %d clips transferred", len(contents) - failures, len(contents))
     return 1 if failures else 0
 
 
