@@ -60,7 +60,7 @@ class StyleWindows:
     valid: (N,) False for windows that would cross from one library clip into the next.
     """
 
-    CHUNK_FRAMES = 16384
+    CHUNK_FRAMES = 4096
 
     def __init__(self, white_library: FloatArray, clip_starts: IntArray, patch_frames: int) -> None:
         total = white_library.shape[0]
