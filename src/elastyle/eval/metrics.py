@@ -60,24 +60,24 @@ def _lateral_difference(motion: Motion, positions: FloatArray, left: int, right:
     return np.sum(delta * forward, axis=1)
 
 
+def _alternation_hz(motion: Motion, positions: FloatArray | None, limb: str) -> float:
+    """Dominant frequency (Hz) of one of a pair of limbs ('ankles' or 'hands') leading the other."""
+    positions = motion.positions() if positions is None else positions
+    pair = getattr(find_limbs(motion.skeleton), limb)
+    if len(pair) < 2:
+        return float("nan")
+    lead = _lateral_difference(motion, positions, int(pair[0]), int(pair[1]))
+    return _dominant_frequency_hz(lead, motion.fps, 0.25, 2.0)
+
+
 def cadence_steps_s(motion: Motion, positions: FloatArray | None = None) -> float:
     """Steps per second: twice the dominant frequency of one foot's lead over the other."""
-    positions = motion.positions() if positions is None else positions
-    limbs = find_limbs(motion.skeleton)
-    if len(limbs.ankles) < 2:
-        return float("nan")
-    lead = _lateral_difference(motion, positions, int(limbs.ankles[0]), int(limbs.ankles[1]))
-    return 2.0 * _dominant_frequency_hz(lead, motion.fps, 0.25, 2.0)
+    return 2.0 * _alternation_hz(motion, positions, "ankles")
 
 
 def arm_swing_hz(motion: Motion, positions: FloatArray | None = None) -> float:
     """Dominant frequency of one hand's lead over the other (a full swing cycle per second)."""
-    positions = motion.positions() if positions is None else positions
-    limbs = find_limbs(motion.skeleton)
-    if len(limbs.hands) < 2:
-        return float("nan")
-    lead = _lateral_difference(motion, positions, int(limbs.hands[0]), int(limbs.hands[1]))
-    return _dominant_frequency_hz(lead, motion.fps, 0.25, 2.0)
+    return _alternation_hz(motion, positions, "hands")
 
 
 def timing_error(output_steps_s: float, content_steps_s: float, style_steps_s: float) -> float:
