@@ -241,3 +241,11 @@ def test_headless_browser_plays_and_draws_skeletons(
     for colour in ("#1f6fd1", "#d1431f", "#7b4fd8", "#e08a1e"):  # left and right bones of both clips
         assert colour_pixels(scene, colour) > 40, colour
     assert colour_pixels(scene, "#cfcfca", 6.0) > 200  # ground grid
+
+
+def test_payload_carries_foot_contacts(dataset_clips: list[ClipRef]) -> None:
+    motion, _ = clip_named(dataset_clips, "dataset-2_walk_normal_005").read()
+    clip = build_payload([motion], ["walk"])["clips"][0]
+    assert [motion.skeleton.names[t] for t in clip["toes"]] == ["Toes_L", "Toes_R"]
+    contacts = np.array(clip["contacts"]).reshape(motion.num_frames, 2)
+    assert 0.3 < contacts.mean() < 0.9  # a walk: each foot planted for part of its cycle

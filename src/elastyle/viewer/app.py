@@ -59,10 +59,22 @@ def build_payload(
                 "bones": bones(motion.skeleton).tolist(),  # (B, 2) parent, child
                 "sides": joint_sides(motion.skeleton).tolist(),  # (J,) 0 centre, 1 left, 2 right
                 "positions": np.round(positions, 2).ravel().tolist(),  # (T * J * 3,)
+                **_contacts(motion),
             }
         )
     height = height if height > 0 else 1.0
     return {"clips": clips, "height": height, "grid_spacing": grid_spacing(height), "explain": explain}
+
+
+def _contacts(motion: Motion) -> dict[str, Any]:
+    """Toe joints (F,) and their planted frames (T * F,) as 0/1, from `cleanup.detect_contacts`; none if no legs."""
+    from elastyle.body import find_limbs
+    from elastyle.cleanup import detect_contacts
+
+    toes = find_limbs(motion.skeleton).toes
+    if len(toes) == 0:
+        return {"toes": [], "contacts": []}
+    return {"toes": toes.tolist(), "contacts": detect_contacts(motion).astype(np.int8).ravel().tolist()}
 
 
 def read_explain(path: str | os.PathLike[str]) -> dict[str, Any]:
@@ -313,6 +325,14 @@ function draw() {
     for (const [a, b] of c.bones) {
       ctx.strokeStyle = c.palette[c.sides[b]]; ctx.lineWidth = 3; ctx.beginPath();
       seg(C, place(joint(c, f, a)), place(joint(c, f, b))); ctx.stroke();
+    }
+    for (const [k, toe] of c.toes.entries()) {  // planted feet: a dot on the ground under the toe
+      if (!c.contacts[f * c.toes.length + k]) continue;
+      const q = place(joint(c, f, toe)); q[1] = 0;
+      if (depth(C, q) > C.near) {
+        const pq = proj(C, q); ctx.fillStyle = "rgba(220,40,40,0.85)";
+        ctx.beginPath(); ctx.arc(pq[0], pq[1], 5, 0, 2 * Math.PI); ctx.fill();
+      }
     }
     const top = place(joint(c, f, c.pelvis)); top[1] = 1.05 * H;
     if (depth(C, top) > C.near) {
