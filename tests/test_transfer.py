@@ -83,6 +83,8 @@ def test_strength_schedule_fades_the_style_in(model, content: Motion, style_clip
     np.testing.assert_allclose(faded.positions()[:45], plain.positions()[:45], atol=1e-3)
     full = transfer(content, style_clip, model).motion
     assert faded.num_frames != content.num_frames or full.num_frames == content.num_frames
+    # after the fade the style's timing takes over: the output is not the content frame for frame
+    assert np.abs(faded.positions()[-30:] - plain.positions()[-30:]).max() > 1.0
 
 
 def test_transition_and_blend_of_two_styles(
@@ -110,6 +112,10 @@ def test_explain_lists_every_patch(model, content: Motion, style_clip: Motion) -
         assert -1 <= row["similarity"] <= 1
         assert 0 <= row["style_start_frame"] < style_clip.num_frames
     assert any(row["style_mirrored"] for row in patches) or any(not row["style_mirrored"] for row in patches)
+    assert all(isinstance(row["style_mirrored"], bool) for row in patches)
+    # output times advance by one patch (1 s) per row
+    starts = [row["output_start_s"] for row in patches]
+    assert np.allclose(np.diff(starts), 1.0, atol=0.05)
 
 
 def test_style_library_of_several_clips_and_a_short_style(model, content: Motion, dataset_clips) -> None:  # type: ignore[no-untyped-def]

@@ -11,6 +11,8 @@ from pathlib import Path
 from typing import Any
 
 from elastyle.errors import ElastyleError, OutputError, UsageError
+from elastyle.io.dataset import ClipRef
+from elastyle.motion import Motion
 
 log = logging.getLogger("elastyle")
 
@@ -106,7 +108,7 @@ def run_transfer(args: argparse.Namespace) -> int:
     from elastyle.io.dataset import find_clips
     from elastyle.io.files import check_output_path
     from elastyle.model.file import load_model
-    from elastyle.transfer.cache import cache_folder, library_key, load_library
+    from elastyle.transfer.cache import load_library
     from elastyle.transfer.schedule import Schedule
     from elastyle.transfer.stylize import TransferConfig
 
@@ -134,22 +136,17 @@ def run_transfer(args: argparse.Namespace) -> int:
     strength = Schedule.parse(args.strength, "strength")
     model = load_model(args.model)
 
+    def check(clip: ClipRef, motion: Motion) -> None:
+        model.check_clip(motion, clip.name)
+        if abs(motion.fps - model.fps) > 1e-6:
+            log.info(
+                "note: %s is %.6g fps, resampled to the model's %.6g fps", clip.name, motion.fps, model.fps
+            )
+
     def library(specs: list[str]):  # type: ignore[no-untyped-def]
-        clips = find_clips(specs)
-        key = library_key(model, clips, config.mirror_style)
-        if not args.no_cache and (cache_folder() / f"{key}.npz").exists():
-            return load_library(model, clips, config.mirror_style)
-        motions = [clip.read()[0] for clip in clips]  # read first: errors name the clip
-        for clip, motion in zip(clips, motions):
-            model.check_clip(motion, clip.name)
-            if abs(motion.fps - model.fps) > 1e-6:
-                log.info(
-                    "note: %s is %.6g fps, resampled to the model's %.6g fps",
-                    clip.name,
-                    motion.fps,
-                    model.fps,
-                )
-        return load_library(model, clips, config.mirror_style, use_cache=not args.no_cache)
+        return load_library(
+            model, find_clips(specs), config.mirror_style, use_cache=not args.no_cache, check=check
+        )
 
     style = library(args.style)
     second = None

@@ -49,6 +49,11 @@ class FeatureSpec:
         return np.array(below, dtype=np.int64)
 
     @property
+    def above_joints(self) -> IntArray:
+        """Joints above the pelvis (A,): not features, carried from the content in the `RootPath`."""
+        return np.setdiff1d(np.arange(self.skeleton.num_joints), self.pose_joints)
+
+    @property
     def num_channels(self) -> int:
         return 3 * len(self.pose_joints) + 3
 
@@ -97,9 +102,7 @@ class FeatureSpec:
         features = np.concatenate(
             [from_quat(quats).reshape(motion.num_frames, -1), sway, pelvis_positions[:, 1:2]], axis=1
         )
-        above = np.array(
-            [j for j in range(self.skeleton.num_joints) if j not in set(joints.tolist())], dtype=np.int64
-        )
+        above = self.above_joints
         root = RootPath(
             path,
             yaw,
@@ -120,9 +123,7 @@ class FeatureSpec:
         relative = features[:, : 3 * num_pose].reshape(num_frames, num_pose, 3)
         rotations = np.zeros((num_frames, self.skeleton.num_joints, 3))
         translations = np.zeros_like(rotations)
-        above = np.array(
-            [j for j in range(self.skeleton.num_joints) if j not in set(joints.tolist())], dtype=np.int64
-        )
+        above = self.above_joints
         rotations[:, above] = root.above_rotations
         translations[:, above] = root.above_translations
         rotations[:, joints] = multiply(self.reference_rotations[joints], relative)

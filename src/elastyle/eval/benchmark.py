@@ -12,7 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from elastyle.eval.metrics import cadence_steps_s, foot_skating_cm_s, jerk, timing_error
+from elastyle.eval.metrics import cadence_steps_s
+from elastyle.eval.report import transfer_figures
 from elastyle.io.dataset import ClipRef, dataset_label, find_clips
 from elastyle.model.file import StyleModel
 from elastyle.motion import Motion
@@ -65,23 +66,18 @@ def benchmark_pairs(data: str, max_pairs: int = 24, holdout_every: int = 5) -> l
 
 def score_pairs(pairs: list[Pair], model: StyleModel, config: TransferConfig) -> dict[str, float]:
     """Median timing error, skating and jerk ratio over the pairs, and the mean time per transfer."""
-    errors, skates, jerks, seconds = [], [], [], []
+    figures, seconds = [], []
     for pair in pairs:
         library = prepare_style(model, [pair.style_motion], [pair.style.name], config.mirror_style)
         started = time.perf_counter()
         result = transfer(pair.content_motion, library, model, config)
         seconds.append(time.perf_counter() - started)
-        positions = result.motion.positions()
-        errors.append(
-            timing_error(cadence_steps_s(result.motion, positions), pair.content_cadence, pair.style_cadence)
-        )
-        skates.append(foot_skating_cm_s(result.motion, positions))
-        content_jerk = jerk(pair.content_motion.positions(), pair.content_motion.fps)
-        jerks.append(jerk(positions, result.motion.fps) / content_jerk)
+        figures.append(transfer_figures(result.motion, pair.content_motion, pair.style_motion))
+    errors = [f["timing_error"] for f in figures]
     return {
         "timing_error_median": float(np.median(errors)),
         "timing_error_mean": float(np.mean(errors)),
-        "skating_cm_s": float(np.median(skates)),
-        "jerk_ratio": float(np.median(jerks)),
+        "skating_cm_s": float(np.median([f["skating_output_cm_s"] for f in figures])),
+        "jerk_ratio": float(np.median([f["jitter_vs_content"] for f in figures])),
         "seconds_per_transfer": float(np.mean(seconds)),
     }

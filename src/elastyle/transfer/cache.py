@@ -10,6 +10,7 @@ from __future__ import annotations
 import hashlib
 import logging
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +18,7 @@ import numpy as np
 from elastyle.io.dataset import ClipRef
 from elastyle.io.files import write_bytes_atomic
 from elastyle.model.file import FORMAT_VERSION, StyleModel
+from elastyle.motion import Motion
 from elastyle.transfer.stylize import StyleLibrary, prepare_style
 from elastyle.transfer.whiten import LatentStats
 
@@ -51,9 +53,14 @@ def library_key(model: StyleModel, clips: list[ClipRef], mirror_style: bool) -> 
 
 
 def load_library(
-    model: StyleModel, clips: list[ClipRef], mirror_style: bool, use_cache: bool = True
+    model: StyleModel,
+    clips: list[ClipRef],
+    mirror_style: bool,
+    use_cache: bool = True,
+    check: Callable[[ClipRef, Motion], None] | None = None,
 ) -> StyleLibrary:
-    """The encoded library of `clips`, from the cache when it holds them, else encoded (and cached)."""
+    """The encoded library of `clips`, from the cache when it holds them, else read, checked by `check`
+    (which raises for a clip that cannot be used), encoded and cached."""
     path = cache_folder() / f"{library_key(model, clips, mirror_style)}.npz"
     if use_cache and path.exists():
         try:
@@ -69,6 +76,9 @@ def load_library(
         except (OSError, KeyError, ValueError):
             log.debug("unreadable cache entry %s: encoding again", path)
     motions = [clip.read()[0] for clip in clips]
+    for clip, motion in zip(clips, motions):
+        if check is not None:
+            check(clip, motion)
     library = prepare_style(model, motions, [c.name for c in clips], mirror_style)
     if use_cache:
         try:

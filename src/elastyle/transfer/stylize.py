@@ -11,6 +11,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -89,11 +90,14 @@ class StyleLibrary:
     stats: LatentStats
     _windows: dict[int, StyleWindows] = field(default_factory=dict)
 
+    @cached_property
+    def white(self) -> FloatArray:
+        """The library's latents (N, Z) whitened with its own pooled statistics."""
+        return self.stats.whiten(self.latents)
+
     def windows(self, patch_frames: int) -> StyleWindows:
         if patch_frames not in self._windows:
-            self._windows[patch_frames] = StyleWindows(
-                self.stats.whiten(self.latents), self.clip_starts, patch_frames
-            )
+            self._windows[patch_frames] = StyleWindows(self.white, self.clip_starts, patch_frames)
         return self._windows[patch_frames]
 
     def locate(self, library_frame: int) -> tuple[int, int]:
@@ -193,12 +197,11 @@ def _style_track(
     search = search_sequential if config.placement == "sequential" else search_fixed
     lengths = config.source_lengths(patch_frames, fps)
     patches, shifted = search(white_content, windows, lengths)
-    white_style = library.stats.whiten(library.latents)
     position_a, weight_a, log_rate = _patch_sample(grid, patches, patch_frames)
     position_b, weight_b, _ = _patch_sample(grid, shifted, patch_frames)
     white = (
-        weight_a[:, None] * _interpolate_rows(white_style, position_a)
-        + weight_b[:, None] * _interpolate_rows(white_style, position_b)
+        weight_a[:, None] * _interpolate_rows(library.white, position_a)
+        + weight_b[:, None] * _interpolate_rows(library.white, position_b)
     ) / (weight_a + weight_b)[:, None]
     return _StyleTrack(library.stats.colour(white), log_rate, patches, patch_frames)
 
