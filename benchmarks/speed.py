@@ -150,7 +150,28 @@ def main() -> int:
     if not args.no_io:
         bvh_throughput(args.data, args.quick)
     cli_wall_time(content_10, style_10)
+    batch_throughput(args.data, 20 if args.quick else 100)
     return 0
+
+
+def batch_throughput(data: str, count: int) -> None:
+    """`elastyle transfer` of `count` dataset walks against one style clip into a folder: clips per second
+    on one process and on every core (the CLI's default), from the command's start to its end."""
+    walks = [c.name for c in find_clips([data], pattern="*_walk_*")]
+    contents = walks[:: max(1, len(walks) // count)][:count]
+    style = [c.name for c in find_clips([data], pattern="*_walk_exhausted_*")][0]
+    for jobs in (1, os.cpu_count() or 1):
+        with tempfile.TemporaryDirectory() as folder:
+            command = [sys.executable, "-m", "elastyle.cli", "transfer", *contents, "--style", style,
+                       "-o", f"{folder}/", "--jobs", str(jobs), "--no-cache"]  # fmt: skip
+            started = time.perf_counter()
+            subprocess.run(
+                command, check=True, capture_output=True, env=dict(os.environ, OPENBLAS_NUM_THREADS="1")
+            )
+            seconds = time.perf_counter() - started
+            frames = sum(c.read()[0].num_frames for c in find_clips([f"{folder}/*.bvh"]))
+        print(f"batch: {len(contents)} dataset walks on {jobs} process(es): {seconds:.1f} s, "
+              f"{len(contents) / seconds:.1f} clips/s, {frames / seconds:,.0f} output frames/s")  # fmt: skip
 
 
 def bvh_throughput(data: str, quick: bool) -> None:

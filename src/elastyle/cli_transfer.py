@@ -81,6 +81,10 @@ def add_transfer_command(commands: Any) -> None:
         action="store_true",
         help="move the root with the stance foot before the clean-up (the path may drift from the content's)",
     )
+    parser.add_argument(
+        "--jobs", type=int, default=None, metavar="N",
+        help="processes for several content clips (default: one per core)",
+    )  # fmt: skip
     parser.add_argument("--force", action="store_true", help="overwrite existing output files")
     parser.set_defaults(run=run_transfer)
 
@@ -116,6 +120,8 @@ def run_transfer(args: argparse.Namespace) -> int:
         raise _usage("give --then-style or --blend-style, not both")
     if args.then_style and args.at is None:
         raise _usage("--then-style needs --at SECONDS")
+    if args.jobs is not None and args.jobs < 1:
+        raise _usage(f"--jobs must be at least 1, got {args.jobs}")
     if args.explain and len(args.content) > 1:
         raise _usage("--explain works with one content clip")
     targets = _outputs(args)
@@ -165,7 +171,7 @@ def run_transfer(args: argparse.Namespace) -> int:
     if len(args.content) == 1:
         _transfer_one(job, args.content[0], targets[0])
         return 0
-    return _transfer_batch(job, args.content, targets)
+    return _transfer_batch(job, args.content, targets, args.jobs)
 
 
 @dataclass(frozen=True)
@@ -218,22 +224,30 @@ def _worker_transfer(task: tuple[str, Path]) -> str | None:
         return str(error)
 
 
-def _transfer_batch(job: _Job, contents: list[str], targets: list[Path]) -> int:
-    """Many content clips with the style encoded once, on every core; one line per failed clip."""
+def _transfer_batch(job: _Job, contents: list[str], targets: list[Path], jobs: int | None) -> int:
+    """Many content clips with the style encoded once, on `jobs` processes (every core by default), with a
+    progress bar on a terminal; one line per failed clip, and the others still finish."""
     import multiprocessing
     import os
-    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    workers = max(1, min(len(contents), os.cpu_count() or 1))
+    from tqdm import tqdm
+
+    workers = max(1, min(len(contents), jobs or os.cpu_count() or 1))
     context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
     failures = 0
-    with ProcessPoolExecutor(workers, mp_context=context, initializer=_worker_start, initargs=(job,)) as pool:
-        results = pool.map(_worker_transfer, list(zip(contents, targets)))
-        for done, (content, error) in enumerate(zip(contents, results), start=1):
+    with (
+        ProcessPoolExecutor(workers, mp_context=context, initializer=_worker_start, initargs=(job,)) as pool,
+        tqdm(total=len(contents), unit="clip", desc="transfer", disable=None, dynamic_ncols=True) as bar,
+    ):
+        futures = {pool.submit(_worker_transfer, task): task[0] for task in zip(contents, targets)}
+        for future in as_completed(futures):
+            error = future.result()
             if error is not None:
                 failures += 1
-                print(f"elastyle: error: {error}", file=sys.stderr)
-            log.info("[%d/%d] %s%s", done, len(contents), content, " failed" if error else "")
+                bar.write(f"elastyle: error: {error}", file=sys.stderr)
+            log.debug("%s%s", futures[future], " failed" if error else " done")
+            bar.update()
     log.info("%d of %d clips transferred", len(contents) - failures, len(contents))
     return 1 if failures else 0
 
