@@ -34,6 +34,14 @@ from elastyle.motion import Motion  # noqa: E402
 from elastyle.transfer import elastic  # noqa: E402
 from elastyle.transfer.stylize import TransferConfig, prepare_style, transfer  # noqa: E402
 
+# (stretch step, label, placement): the sequential search has one library pass per patch (each patch
+# starts where the previous one's matched stretch ended); the fixed placement searches all in one batch
+CASES = (
+    (4 / 60, "report step", "sequential"),
+    (0.0, "1-frame", "sequential"),
+    (4 / 60, "fixed, report step", "fixed"),
+)
+
 
 def best_of(function, repeats: int = 5) -> float:  # type: ignore[no-untyped-def]
     times = []
@@ -83,8 +91,9 @@ def plain_matmul_s(rows: int, inner: int, columns: int) -> float:
     return best_of(lambda: a @ b.T, 3)
 
 
-def run_case(name: str, model, content: Motion, style_motions: list[Motion], step_s: float) -> None:  # type: ignore[no-untyped-def]
-    config = TransferConfig(stretch_step_s=step_s)
+def run_case(name: str, model, content: Motion, style_motions: list[Motion], step_s: float,  # type: ignore[no-untyped-def]
+             placement: str = "sequential") -> None:  # fmt: skip
+    config = TransferConfig(stretch_step_s=step_s, placement=placement)
     library = prepare_style(model, style_motions)
     transfer(content, library, model, config)  # warm the window cache
     total_s = best_of(lambda: transfer(content, library, model, config), 3)
@@ -122,8 +131,8 @@ def main() -> int:
     print(
         f"one core; 1024^3 float32 matmul {1000 * gemm_s:.1f} ms ({2 * 1024**3 / gemm_s / 1e9:.0f} GFLOP/s)"
     )
-    for step_s, label in ((4 / 60, "report step"), (0.0, "1-frame")):
-        run_case(f"10 s x 10 s, {label}", model, content_10, [style_10], step_s)
+    for step_s, label, placement in CASES:
+        run_case(f"10 s x 10 s, {label}", model, content_10, [style_10], step_s, placement)
     config = TransferConfig()
     library = prepare_style(model, [style_10])
     whole = best_of(lambda: transfer(content_10, library, model, config), 5)
@@ -138,8 +147,8 @@ def main() -> int:
             total += motion.num_frames
             if total >= 600 * motion.fps:
                 break
-        for step_s, label in ((4 / 60, "report step"), (0.0, "1-frame")):
-            run_case(f"60 s x 10 min library, {label}", model, long_content, chosen, step_s)
+        for step_s, label, placement in CASES:
+            run_case(f"60 s x 10 min library, {label}", model, long_content, chosen, step_s, placement)
         encode_s = best_of(lambda: prepare_style(model, chosen), 1)
         cached = prepare_style(model, chosen)
         with_cache = best_of(lambda: transfer(content_10, cached, model, config), 3)

@@ -34,6 +34,15 @@ def test_batched_float32_search_agrees_with_float64_loop() -> None:
         expected, expected_similarity = _brute_force_best(library, valid, query)
         assert index[q] == expected
         assert abs(similarity[q] - expected_similarity) < 1e-5
+    # every block size, including ones that do not divide the patch, gives the same similarities
+    reference = windows.similarities(queries, block=1)
+    for block in (2, 5, 7, 12):
+        assert np.allclose(windows.similarities(queries, block=block), reference, atol=1e-5)
+    # small chunks of windows, block rows built per chunk instead of cached: the same again
+    windows.CHUNK_BYTES, windows.MIN_CHUNK_WINDOWS, windows.BLOCKED_BYTES = 1, 10, 0
+    for block in (1, 5, 12):
+        assert np.allclose(windows.similarities(queries, block=block), reference, atol=1e-5)
+    assert windows.best(queries)[0].tolist() == index.tolist()
 
 
 def test_sequential_search_consumes_the_content_at_the_matched_stretch() -> None:

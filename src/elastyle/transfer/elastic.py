@@ -14,6 +14,7 @@ The half-shifted second sequence spans from the centre of one elastic patch to t
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,15 +53,21 @@ def sample_windows(
 class StyleWindows:
     """Every L-frame window of a whitened style library (stride 1), for cosine similarity.
 
-    The windows are never materialised (an (N, L*Z) matrix would be L times the library): a query's
-    dot product with window n is the sum over its frames k of frame products q_k . s_(n+k), so one
-    matrix product of the query frames with the library's frames, then L shifted additions, gives all
-    windows at once. The library is processed in chunks of frames, so memory stays bounded.
+    The windows are never materialised (an (N, L*Z) matrix would be L times the library). A window's dot
+    product with a query is a sum over blocks of B frames: query block b (B*Z values) times the library's
+    B frames from n + bB on. With the library stored as overlapping B-frame rows (T_s, B*Z), one matrix
+    product of the query blocks with those rows, then ceil(L/B) shifted additions, gives every window at
+    once. B trades the product's inner size (B*Z, larger runs nearer the machine's peak) against its rows
+    (Q * ceil(L/B)): it is chosen per call from the number of queries. The library is processed in chunks,
+    so the products stay a few megabytes.
 
     valid: (N,) False for windows that would cross from one library clip into the next.
     """
 
-    CHUNK_FRAMES = 4096
+    PRODUCT_ROWS = 96  # the block size is the smallest giving at most this many query-block rows
+    CHUNK_BYTES = 4 << 20  # products per chunk of windows ...
+    MIN_CHUNK_WINDOWS = 256  # ... but at least this many windows per chunk
+    BLOCKED_BYTES = 64 << 20  # the largest block-row copy of the library kept in memory
 
     def __init__(self, white_library: FloatArray, clip_starts: IntArray, patch_frames: int) -> None:
         total = white_library.shape[0]
@@ -68,34 +75,91 @@ class StyleWindows:
         self.frames: Float32Array = np.ascontiguousarray(white_library, dtype=np.float32)  # (T_s, Z)
         self.num_windows = max(total - patch_frames + 1, 0)
         energy = np.concatenate([[0.0], np.cumsum(np.sum(white_library.astype(np.float64) ** 2, axis=1))])
-        self.norms = np.sqrt(np.maximum(energy[patch_frames:] - energy[:-patch_frames], 0.0))  # (N,)
+        norms = np.sqrt(np.maximum(energy[patch_frames:] - energy[:-patch_frames], 0.0))  # (N,)
+        self.inverse_norms: Float32Array = (1.0 / np.maximum(norms, 1e-8)).astype(np.float32)
         ends = np.append(clip_starts[1:], total)
         valid = np.zeros(self.num_windows, dtype=bool)
         for start, end in zip(clip_starts, ends):
             valid[start : max(start, end - patch_frames + 1)] = True
         self.valid: BoolArray = valid
+        self._blocked: dict[int, Float32Array] = {}
 
-    def similarities(self, queries: FloatArray) -> Float32Array:
-        """Cosine similarity (Q, N) of queries (Q, L, Z) with every window; -inf where a window is invalid."""
+    def block_frames(self, num_queries: int) -> int:
+        """Frames per block B for a call with this many queries: the fewest giving at most `PRODUCT_ROWS`
+        query-block rows (so many queries get whole windows, B = L)."""
+        length = self.patch_frames
+        for block in range(1, length + 1):
+            if num_queries * -(-length // block) <= self.PRODUCT_ROWS:
+                return block
+        return length
+
+    def block_rows(self, block: int, first: int, stop: int) -> Float32Array:
+        """Rows [first, stop) of the library as B-frame rows: row n holds frames n .. n+B-1 side by side
+        (stop - first, B*Z), zeros past the library's end. The whole copy is cached when it is at most
+        `BLOCKED_BYTES`; otherwise rows are built per call (for many queries, whose product costs more)."""
+        total, width = self.frames.shape
+        if block * self.frames.nbytes > self.BLOCKED_BYTES:
+            return self._build_rows(block, first, stop)
+        if block not in self._blocked:
+            self._blocked[block] = self._build_rows(block, 0, total)
+        return self._blocked[block][first:stop]
+
+    def _build_rows(self, block: int, first: int, stop: int) -> Float32Array:
+        total, width = self.frames.shape
+        frames = self.frames[first : min(stop + block - 1, total)]
+        padding = stop + block - 1 - first - frames.shape[0]
+        if padding > 0:
+            frames = np.concatenate([frames, np.zeros((padding, width), np.float32)])
+        rows = np.lib.stride_tricks.sliding_window_view(frames, block, axis=0)  # (stop - first, Z, B)
+        return np.ascontiguousarray(rows.transpose(0, 2, 1)).reshape(stop - first, block * width)
+
+    def _similarity_chunks(
+        self, queries: FloatArray, block: int | None
+    ) -> Iterator[tuple[int, int, Float32Array]]:
+        """(first, last, cosine similarity (Q, last - first) of the queries with windows first..last-1)."""
         count, length, width = queries.shape
+        block = block or self.block_frames(count)
+        num_blocks = -(-length // block)
         flat = queries.reshape(count, -1)
-        unit = (flat / np.maximum(np.linalg.norm(flat, axis=1, keepdims=True), 1e-8)).astype(np.float32)
-        query_frames = unit.reshape(count * length, width)  # (Q*L, Z)
-        dots = np.zeros((count, self.num_windows), dtype=np.float32)
-        for first in range(0, self.num_windows, self.CHUNK_FRAMES):
-            last = min(first + self.CHUNK_FRAMES, self.num_windows)
-            products = (query_frames @ self.frames[first : last + length - 1].T).reshape(count, length, -1)
-            for k in range(length):  # window n's frame k is library frame n + k
-                dots[:, first:last] += products[:, k, k : k + last - first]
-        similarity = dots / np.maximum(self.norms, 1e-8).astype(np.float32)
-        similarity[:, ~self.valid] = -np.inf
-        return similarity
+        unit = np.zeros(
+            (count, num_blocks * block, width), dtype=np.float32
+        )  # zero frames pad the last block
+        unit[:, :length] = queries / np.maximum(np.linalg.norm(flat, axis=1), 1e-8).reshape(-1, 1, 1)
+        query_blocks = unit.reshape(count * num_blocks, block * width)
+        span = (num_blocks - 1) * block  # window n's last block starts at library frame n + span
+        chunk = max(self.MIN_CHUNK_WINDOWS, self.CHUNK_BYTES // (4 * count * num_blocks))
+        for first in range(0, self.num_windows, chunk):
+            last = min(first + chunk, self.num_windows)
+            rows = self.block_rows(block, first, last + span)
+            products = (query_blocks @ rows.T).reshape(count, num_blocks, -1)
+            dots = products[:, 0, : last - first].copy()
+            for b in range(1, num_blocks):  # window n's block b is library row n + bB
+                dots += products[:, b, b * block : b * block + last - first]
+            dots *= self.inverse_norms[first:last]
+            np.copyto(dots, np.float32(-np.inf), where=~self.valid[first:last])
+            yield first, last, dots
+
+    def similarities(self, queries: FloatArray, block: int | None = None) -> Float32Array:
+        """Cosine similarity (Q, N) of queries (Q, L, Z) with every window; -inf where a window is invalid.
+
+        block: frames per block B (default: `block_frames`); any B from 1 to L gives the same result.
+        """
+        return np.concatenate([dots for _, _, dots in self._similarity_chunks(queries, block)], axis=1)
 
     def best(self, queries: FloatArray) -> tuple[IntArray, FloatArray]:
-        """For queries (Q, L, Z): the best window index (Q,) and its cosine similarity (Q,)."""
-        similarity = self.similarities(queries)
-        index = np.argmax(similarity, axis=1)
-        return index, similarity[np.arange(len(index)), index].astype(np.float64)
+        """For queries (Q, L, Z): the best window index (Q,) and its cosine similarity (Q,).
+
+        Reduced chunk by chunk, so many queries against a long library never hold a (Q, N) matrix.
+        """
+        index = np.zeros(len(queries), dtype=np.int64)
+        value = np.full(len(queries), -np.inf)
+        rows = np.arange(len(queries))
+        for first, _, dots in self._similarity_chunks(queries, None):
+            local = np.argmax(dots, axis=1)
+            better = dots[rows, local] > value
+            index[better] = first + local[better]
+            value[better] = dots[rows, local][better]
+        return index, value
 
 
 def search_sequential(
@@ -122,19 +186,23 @@ def search_sequential(
 def search_fixed(
     white_content: FloatArray, windows: StyleWindows, source_lengths: IntArray
 ) -> tuple[list[Patch], list[Patch]]:
-    """The literal placement: patches on the content's own grid, stretch used only for matching."""
+    """The literal placement: patches on the content's own grid, stretch used only for matching.
+
+    Every patch is known beforehand, so all patches and stretches are searched in one batch.
+    """
     patch_frames = windows.patch_frames
     num_patches = max(1, int(np.ceil(white_content.shape[0] / patch_frames)))
-    patches = []
-    for i in range(num_patches):
-        centre = (i + 0.5) * patch_frames
-        queries = sample_windows(white_content, centre - source_lengths / 2, source_lengths, patch_frames)
-        index, similarity = windows.best(queries)
-        choice = int(np.argmax(similarity))
-        # placed at the content's grid: consumes exactly L content frames whatever the stretch
-        patches.append(
-            Patch(i * patch_frames, float(patch_frames), int(index[choice]), float(similarity[choice]))
-        )
+    centres = (np.arange(num_patches) + 0.5) * patch_frames  # (P,)
+    lengths = np.tile(source_lengths, num_patches)  # (P * S,)
+    queries = sample_windows(white_content, np.repeat(centres, len(source_lengths)) - lengths / 2, lengths,
+                             patch_frames)  # fmt: skip
+    index, similarity = (a.reshape(num_patches, -1) for a in windows.best(queries))  # (P, S)
+    choice = np.argmax(similarity, axis=1)
+    # placed at the content's grid: consumes exactly L content frames whatever the stretch
+    patches = [
+        Patch(i * patch_frames, float(patch_frames), int(index[i, c]), float(similarity[i, c]))
+        for i, c in enumerate(choice)
+    ]
     return patches, _half_shifted(white_content, windows, patches)
 
 
