@@ -267,3 +267,16 @@ def test_two_bone_legs_are_left_alone() -> None:
     motion = parse_bvh(THREE_CHANNEL_BVH.encode(), "tiny.bvh")[0]  # hip -> leg -> foot: no knee to bend
     cleaned = clean_feet(motion)
     np.testing.assert_array_equal(cleaned.rotations, motion.rotations)
+
+
+def test_contact_hysteresis_matches_its_frame_by_frame_definition() -> None:
+    from elastyle.cleanup import _hysteresis
+
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        enter, stay = rng.random((60, 2)) < 0.1, rng.random((60, 2)) < 0.8
+        expected = np.zeros_like(enter)
+        expected[0] = enter[0]
+        for frame in range(1, 60):
+            expected[frame] = enter[frame] | (expected[frame - 1] & stay[frame])
+        assert np.array_equal(_hysteresis(enter, stay), expected)

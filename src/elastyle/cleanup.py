@@ -27,14 +27,15 @@ SOFT_REACH = 0.995  # IK straightens a knee up to this fraction of the leg's rea
 
 def ground_level(motion: Motion, positions: FloatArray | None = None) -> float:
     """Height (file units) of the toes' ground level: the 5th percentile of toe heights over all feet."""
-    positions = motion.positions() if positions is None else positions
     toes = find_limbs(motion.skeleton).toes
+    positions = motion.positions(toes) if positions is None else positions
     return float(np.percentile(positions[:, toes, 1], GROUND_PERCENTILE))
 
 
-def detect_contacts(motion: Motion) -> BoolArray:
+def detect_contacts(motion: Motion, positions: FloatArray | None = None) -> BoolArray:
     """(T, F) True where foot f is planted, F = len(find_limbs(skeleton).toes).
 
+    positions: (T, J, 3) the clip's world positions when already known (at least toes and ankles).
     A foot enters contact when its toe or its ankle is both near its ground level and slow horizontally,
     and leaves when neither is (looser thresholds: hysteresis). Contacts and gaps shorter than
     `MIN_CONTACT_S` are removed.
@@ -42,7 +43,8 @@ def detect_contacts(motion: Motion) -> BoolArray:
     limbs = find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
         return np.zeros((motion.num_frames, 0), dtype=bool)
-    positions = motion.positions()  # (T, J, 3)
+    if positions is None:
+        positions = motion.positions(np.concatenate([limbs.toes, limbs.ankles]))  # (T, J, 3)
     leg = leg_length(motion.skeleton, limbs)
     joints = np.stack([limbs.toes, limbs.ankles])  # (2, F) toe and ankle of each foot
     heights = positions[:, joints, 1]  # (T, 2, F)
@@ -52,10 +54,7 @@ def detect_contacts(motion: Motion) -> BoolArray:
     speed_legs_s = np.linalg.norm(velocity, axis=-1) / leg  # (T, 2, F)
     enter = np.any((heights < ENTER_HEIGHT_OF_LEG * leg) & (speed_legs_s < ENTER_SPEED_LEGS_S), axis=1)
     stay = np.any((heights < EXIT_HEIGHT_OF_LEG * leg) & (speed_legs_s < EXIT_SPEED_LEGS_S), axis=1)
-    contacts = np.zeros(enter.shape, dtype=bool)  # (T, F)
-    contacts[0] = enter[0]
-    for frame in range(1, motion.num_frames):
-        contacts[frame] = enter[frame] | (contacts[frame - 1] & stay[frame])
+    contacts = _hysteresis(enter, stay)  # (T, F)
     min_frames = max(1, int(np.ceil(MIN_CONTACT_S * motion.fps)))
     for foot in range(contacts.shape[1]):
         for start, stop in _runs(~contacts[:, foot]):  # fill short gaps between two contacts
@@ -65,6 +64,16 @@ def detect_contacts(motion: Motion) -> BoolArray:
             if stop - start < min_frames:
                 contacts[start:stop, foot] = False
     return contacts
+
+
+def _hysteresis(enter: BoolArray, stay: BoolArray) -> BoolArray:
+    """(T, F) on from a frame where `enter` holds for as long as `stay` holds after it:
+    on[t] = enter[t] or (on[t-1] and stay[t]), i.e. the last enter frame is no earlier than the last
+    frame where stay fails."""
+    frames = np.arange(enter.shape[0])[:, None]  # (T, 1)
+    last_enter = np.maximum.accumulate(np.where(enter, frames, -1), axis=0)
+    last_break = np.maximum.accumulate(np.where(stay, -1, frames), axis=0)
+    return (last_enter >= 0) & (last_enter >= last_break)
 
 
 def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float = 0.15) -> Motion:
@@ -79,11 +88,12 @@ def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float
     where a leg cannot reach. Only leg rotations and the pelvis height change: bone lengths stay exact.
     """
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
-    contacts = detect_contacts(motion) if contacts is None else _checked(contacts, motion, limbs)
-    if contacts.shape[1] == 0:
+    if len(limbs.toes) == 0:
         return Motion(skeleton, motion.rotations.copy(), motion.translations.copy(), motion.fps)
+    legs_and_feet = np.concatenate([limbs.toes, limbs.ankles])
+    world_rotations, positions = motion.world(legs_and_feet)
+    contacts = detect_contacts(motion, positions) if contacts is None else _checked(contacts, motion, limbs)
     leg = leg_length(skeleton, limbs)
-    world_rotations, positions = motion.world()
     ground = ground_level(motion, positions)
     ramp_frames = blend_s * motion.fps
     bridge_frames = max(BRIDGE_GAP_S * motion.fps, 2 * ramp_frames)
@@ -107,7 +117,9 @@ def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float
         shift = np.zeros((motion.num_frames, 3))
         shift[:, 1] = -lowering
         translations = _shift_pelvis(motion, world_rotations, shift)
-        world_rotations, positions = Motion(skeleton, rotations, translations, motion.fps).world()
+        world_rotations, positions = Motion(skeleton, rotations, translations, motion.fps).world(
+            legs_and_feet
+        )
     # 3. two-joint IK per leg on the frames whose ankle has to move (elsewhere the input stays exact)
     for foot in np.flatnonzero(legs).tolist():
         moved = np.linalg.norm(targets[:, foot] - positions[:, chains[foot, 2]], axis=-1) > 1e-9 * leg
@@ -129,7 +141,7 @@ def adjust_root_speed(motion: Motion, contacts: BoolArray, smooth_s: float = 0.2
     contacts = _checked(contacts, motion, limbs)
     if motion.num_frames < 2 or contacts.shape[1] == 0:
         return Motion(motion.skeleton, motion.rotations.copy(), motion.translations.copy(), motion.fps)
-    world_rotations, positions = motion.world()
+    world_rotations, positions = motion.world(np.concatenate([limbs.toes, limbs.ankles]))
     points, weights = _pivots(positions, limbs, leg_length(motion.skeleton, limbs))  # (T, F, 2, 3), (T, F, 2)
     planted = (contacts[1:] & contacts[:-1])[..., None] * 0.5 * (weights[1:] + weights[:-1])  # (T-1, F, 2)
     steps = np.sum(planted[..., None] * np.diff(points, axis=0), axis=(1, 2))  # (T-1, 3)

@@ -78,8 +78,8 @@ class FeatureSpec:
 
     def _heading_relative_rotations(self, motion: Motion) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Local rotations (T, J, 3) with the pelvis's made heading-relative; heading yaw (T,); pelvis positions (T, 3)."""
-        world_rotations, world_positions = motion.world()
         pelvis = self.skeleton.pelvis
+        world_rotations, world_positions = motion.world([pelvis])
         yaw = smooth(
             heading_yaw(world_rotations[:, pelvis], self.forward_local), PATH_SMOOTHING_S * motion.fps
         )
@@ -140,7 +140,7 @@ class FeatureSpec:
         parent = self.skeleton.parents[pelvis]
         if parent >= 0:
             partial = Motion(self.skeleton, rotations, translations, fps)
-            parent_rotations, parent_positions = (a[:, parent] for a in partial.world())
+            parent_rotations, parent_positions = (a[:, parent] for a in partial.world([parent]))
             world_pelvis = np.swapaxes(parent_rotations, -1, -2) @ world_pelvis
             position = np.einsum("tji,tj->ti", parent_rotations, position - parent_positions)
         rotations[:, pelvis] = from_matrix(world_pelvis)

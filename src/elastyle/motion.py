@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from elastyle.rotations import slerp_resample
 from elastyle.skeleton import Skeleton, forward_kinematics
-from elastyle.types import FloatArray
+from elastyle.types import FloatArray, IntArray
 
 
 @dataclass(frozen=True, eq=False)
@@ -50,13 +51,16 @@ class Motion:
         """Frames [start, stop) as a new clip."""
         return Motion(self.skeleton, self.rotations[start:stop], self.translations[start:stop], self.fps)
 
-    def world(self) -> tuple[FloatArray, FloatArray]:
-        """World rotation matrices (T, J, 3, 3) and positions (T, J, 3) by forward kinematics."""
-        return forward_kinematics(self.skeleton, self.rotations, self.translations)
+    def world(self, joints: Sequence[int] | IntArray | None = None) -> tuple[FloatArray, FloatArray]:
+        """World rotation matrices (T, J, 3, 3) and positions (T, J, 3) by forward kinematics.
 
-    def positions(self) -> FloatArray:
-        """World joint positions (T, J, 3) in file units."""
-        return self.world()[1]
+        joints: compute only these and their ancestors (the others are NaN); None: every joint.
+        """
+        return forward_kinematics(self.skeleton, self.rotations, self.translations, joints)
+
+    def positions(self, joints: Sequence[int] | IntArray | None = None) -> FloatArray:
+        """World joint positions (T, J, 3) in file units (only `joints` and their ancestors when given)."""
+        return self.world(joints)[1]
 
     def sample(self, frame_times: FloatArray, fps: float | None = None) -> Motion:
         """The clip at fractional frame indices (N,): slerp for rotations, linear for translations."""

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -48,6 +49,17 @@ class Skeleton:
 
     def children(self, joint: int) -> list[int]:
         return [int(j) for j in np.flatnonzero(self.parents == joint)]
+
+    def with_ancestors(self, joints: Sequence[int] | IntArray | None) -> IntArray:
+        """The joints and every joint above them, sorted (parents first); None: all joints."""
+        if joints is None:
+            return np.arange(self.num_joints)
+        needed = np.zeros(self.num_joints, dtype=bool)
+        for joint in np.asarray(joints, dtype=np.int64).ravel().tolist():
+            while joint >= 0 and not needed[joint]:
+                needed[joint] = True
+                joint = int(self.parents[joint])
+        return np.flatnonzero(needed)
 
     @property
     def pelvis(self) -> int:
@@ -117,26 +129,32 @@ def _opposite_side(word: str) -> str:
 
 
 def forward_kinematics(
-    skeleton: Skeleton, local_rotations: FloatArray, local_translations: FloatArray
+    skeleton: Skeleton,
+    local_rotations: FloatArray,
+    local_translations: FloatArray,
+    joints: Sequence[int] | IntArray | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """Global joint transforms.
 
     local_rotations: (T, J, 3) exp maps; local_translations: (T, J, 3) file units.
+    joints: only these joints (and their ancestors) are computed, the others are NaN; None: every joint.
     Returns world rotation matrices (T, J, 3, 3) and world positions (T, J, 3) in file units.
     """
-    local_matrices = to_matrix(local_rotations)  # (T, J, 3, 3)
-    world_matrices = np.empty_like(local_matrices)
-    world_positions = np.empty_like(local_translations)
-    for joint in range(skeleton.num_joints):
+    needed = skeleton.with_ancestors(joints)
+    num_frames = local_rotations.shape[0]
+    world_matrices = np.full((num_frames, skeleton.num_joints, 3, 3), np.nan)
+    world_positions = np.full((num_frames, skeleton.num_joints, 3), np.nan)
+    world_matrices[:, needed] = to_matrix(local_rotations[:, needed])  # local for now, (T, n, 3, 3)
+    world_positions[:, needed] = local_translations[:, needed]
+    for joint in needed.tolist():
         parent = skeleton.parents[joint]
         if parent < 0:
-            world_matrices[:, joint] = local_matrices[:, joint]
-            world_positions[:, joint] = local_translations[:, joint]
             continue
-        world_matrices[:, joint] = world_matrices[:, parent] @ local_matrices[:, joint]
+        parent_matrices = world_matrices[:, parent]  # (T, 3, 3)
         world_positions[:, joint] = world_positions[:, parent] + np.einsum(
-            "tij,tj->ti", world_matrices[:, parent], local_translations[:, joint]
+            "tij,tj->ti", parent_matrices, world_positions[:, joint]
         )
+        world_matrices[:, joint] = parent_matrices @ world_matrices[:, joint]
     return world_matrices, world_positions
 
 

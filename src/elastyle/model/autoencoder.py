@@ -46,17 +46,27 @@ def _conv_same(x: Float32Array, weight: Float32Array, bias: Float32Array) -> Flo
     return flat @ weight.reshape(weight.shape[0], -1).T + bias
 
 
-def _conv_transpose_same(h: Float32Array, weight: Float32Array) -> Float32Array:
-    """Transposed convolution of h (T, C_out) by weight (C_out, C_in, K), zero padding K // 2 -> (T, C_in)."""
-    kernel = weight.shape[2]
+def _transpose_taps(weight: Float32Array) -> Float32Array:
+    """Weight (C_out, C_in, K) as one matrix (C_out, K * C_in) for `_conv_transpose_same`."""
+    return np.ascontiguousarray(weight.transpose(0, 2, 1)).reshape(weight.shape[0], -1)
+
+
+def _conv_transpose_same(h: Float32Array, taps: Float32Array, kernel: int) -> Float32Array:
+    """Transposed convolution of h (T, C_out) by weight taps (C_out, K * C_in) from `_transpose_taps`,
+    zero padding K // 2 -> (T, C_in).
+
+    y[t] = sum_k h[t + pad - k] W[:, :, k]: one product gives every frame's K contributions (T, K, C_in),
+    which are added at their K offsets (no (T, C_out * K) copy of the input).
+    """
+    num_frames = h.shape[0]
+    contributions = (h @ taps).reshape(num_frames, kernel, -1)  # (T, K, C_in)
     if kernel == 1:
-        return h @ weight[:, :, 0]
+        return contributions[:, 0]
     pad = kernel // 2
-    # y[t] = sum_k h[t + pad - k] W[:, :, k]: a correlation with the kernel flipped in time
-    padded = np.pad(h, ((kernel - 1 - pad, pad), (0, 0)))  # (T + K - 1, C_out)
-    windows = sliding_window_view(padded, kernel, axis=0)  # (T, C_out, K)
-    flipped = weight[:, :, ::-1]  # (C_out, C_in, K)
-    return windows.reshape(windows.shape[0], -1) @ flipped.transpose(0, 2, 1).reshape(-1, weight.shape[1])
+    out = np.zeros((num_frames + kernel - 1, contributions.shape[2]), dtype=contributions.dtype)
+    for k in range(kernel):  # h[t] reaches y[t - pad + k]
+        out[k : k + num_frames] += contributions[:, k]
+    return out[pad : pad + num_frames]
 
 
 class Autoencoder:
@@ -65,6 +75,9 @@ class Autoencoder:
     def __init__(self, config: ModelConfig, weights: AutoencoderWeights) -> None:
         self.config = config
         self.weights = weights
+        second, first = (weights.conv2, weights.conv1) if config.tied else (weights.deconv2, weights.deconv1)
+        assert second is not None and first is not None, "an untied model needs its decoder weights"
+        self._decoder_taps = (_transpose_taps(second), _transpose_taps(first))  # (Z, H), (H, K * C)
 
     def encode(self, features: AnyFloatArray) -> Float32Array:
         w = self.weights
@@ -74,15 +87,12 @@ class Autoencoder:
     def decode(self, latents: AnyFloatArray) -> Float32Array:
         w = self.weights
         latents = latents.astype(np.float32)
+        second, first = self._decoder_taps
+        kernel = w.conv1.shape[2]
         if self.config.tied:
             # the report's inverse: subtract the bias, then the transposed convolution with the same weights
-            hidden = np.maximum(_conv_transpose_same(latents - w.bias2, w.conv2), 0.0)  # (T, H)
-            return _conv_transpose_same(hidden - w.bias1, w.conv1)  # (T, C)
-        assert (
-            w.deconv2 is not None
-            and w.debias2 is not None
-            and w.deconv1 is not None
-            and w.debias1 is not None
-        )
-        hidden = np.maximum(_conv_transpose_same(latents, w.deconv2) + w.debias2, 0.0)
-        return _conv_transpose_same(hidden, w.deconv1) + w.debias1
+            hidden = np.maximum(_conv_transpose_same(latents - w.bias2, second, 1), 0.0)  # (T, H)
+            return _conv_transpose_same(hidden - w.bias1, first, kernel)  # (T, C)
+        assert w.debias2 is not None and w.debias1 is not None
+        hidden = np.maximum(_conv_transpose_same(latents, second, 1) + w.debias2, 0.0)
+        return _conv_transpose_same(hidden, first, kernel) + w.debias1
