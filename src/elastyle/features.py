@@ -51,7 +51,9 @@ class FeatureSpec:
     @property
     def above_joints(self) -> IntArray:
         """Joints above the pelvis (A,): not features, carried from the content in the `RootPath`."""
-        return np.setdiff1d(np.arange(self.skeleton.num_joints), self.pose_joints)
+        above = np.ones(self.skeleton.num_joints, dtype=bool)
+        above[self.pose_joints] = False
+        return np.flatnonzero(above)
 
     @property
     def num_channels(self) -> int:

