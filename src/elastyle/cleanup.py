@@ -16,6 +16,9 @@ from elastyle.skeleton import Skeleton
 from elastyle.types import BoolArray, FloatArray, IntArray
 
 GROUND_PERCENTILE = 5.0  # a foot joint's ground level: this percentile of its heights over the clip
+# the nearest sample to that percentile: numpy's interpolating method costs a 30 ms import (numpy.ma) on
+# its first call in a process, a tenth of a command-line transfer
+PERCENTILE_METHOD = "nearest"
 ENTER_HEIGHT_OF_LEG = 0.03  # a toe or ankle this close to its ground level (2.4 cm on an 80 cm leg) ...
 ENTER_SPEED_LEGS_S = 0.5  # ... and slower than this (40 cm/s) starts a contact
 EXIT_HEIGHT_OF_LEG = 0.06  # the contact lasts until both joints are higher than this ...
@@ -29,7 +32,7 @@ def ground_level(motion: Motion, positions: FloatArray | None = None) -> float:
     """Height (file units) of the toes' ground level: the 5th percentile of toe heights over all feet."""
     toes = find_limbs(motion.skeleton).toes
     positions = motion.positions(toes) if positions is None else positions
-    return float(np.percentile(positions[:, toes, 1], GROUND_PERCENTILE))
+    return float(np.percentile(positions[:, toes, 1], GROUND_PERCENTILE, method=PERCENTILE_METHOD))
 
 
 def detect_contacts(motion: Motion, positions: FloatArray | None = None) -> BoolArray:
@@ -48,7 +51,9 @@ def detect_contacts(motion: Motion, positions: FloatArray | None = None) -> Bool
     leg = leg_length(motion.skeleton, limbs)
     joints = np.stack([limbs.toes, limbs.ankles])  # (2, F) toe and ankle of each foot
     heights = positions[:, joints, 1]  # (T, 2, F)
-    heights = heights - np.percentile(heights, GROUND_PERCENTILE, axis=(0, 2), keepdims=True)
+    heights = heights - np.percentile(
+        heights, GROUND_PERCENTILE, axis=(0, 2), keepdims=True, method=PERCENTILE_METHOD
+    )
     horizontal = positions[:, joints][..., [0, 2]]  # (T, 2, F, 2)
     velocity = np.gradient(horizontal, axis=0) * motion.fps if motion.num_frames > 1 else 0 * horizontal
     speed_legs_s = np.linalg.norm(velocity, axis=-1) / leg  # (T, 2, F)
@@ -192,7 +197,9 @@ def _pivots(positions: FloatArray, limbs: Limbs, leg: float) -> tuple[FloatArray
     so a foot lifting off leaves gently instead of being pinned until the contact ends.
     """
     points = np.stack([positions[:, limbs.toes], positions[:, limbs.ankles]], axis=2)  # (T, F, 2, 3)
-    heights = points[..., 1] - np.percentile(points[..., 1], GROUND_PERCENTILE, axis=(0, 1))  # (T, F, 2)
+    heights = points[..., 1] - np.percentile(
+        points[..., 1], GROUND_PERCENTILE, axis=(0, 1), method=PERCENTILE_METHOD
+    )  # (T, F, 2)
     toe_weight = _smoothstep(1.0 + (heights[..., 1] - heights[..., 0]) / (ENTER_HEIGHT_OF_LEG * leg))
     weights = np.stack([toe_weight, 1 - toe_weight], axis=-1)  # (T, F, 2), sums to 1
     pivot_height = np.sum(weights * heights, axis=-1)  # (T, F)
