@@ -127,7 +127,8 @@ class StyleWindows:
         unit[:, :length] = queries / np.maximum(np.linalg.norm(flat, axis=1), 1e-8).reshape(-1, 1, 1)
         query_blocks = unit.reshape(count * num_blocks, block * width)
         span = (num_blocks - 1) * block  # window n's last block starts at library frame n + span
-        chunk = max(self.MIN_CHUNK_WINDOWS, self.CHUNK_BYTES // (4 * count * num_blocks))
+        # the products, and block rows built per chunk, stay within CHUNK_BYTES each
+        chunk = max(self.MIN_CHUNK_WINDOWS, self.CHUNK_BYTES // (4 * max(count * num_blocks, block * width)))
         for first in range(0, self.num_windows, chunk):
             last = min(first + chunk, self.num_windows)
             rows = self.block_rows(block, first, last + span)
