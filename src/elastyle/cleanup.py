@@ -11,7 +11,7 @@ import numpy as np
 
 from elastyle.body import Limbs, find_limbs, leg_length
 from elastyle.motion import Motion
-from elastyle.rotations import from_matrix, to_matrix
+from elastyle.rotations import from_matrix, lengths, to_matrix
 from elastyle.skeleton import Skeleton
 from elastyle.types import BoolArray, FloatArray, IntArray
 
@@ -56,7 +56,7 @@ def detect_contacts(motion: Motion, positions: FloatArray | None = None) -> Bool
     )
     horizontal = positions[:, joints][..., [0, 2]]  # (T, 2, F, 2)
     velocity = np.gradient(horizontal, axis=0) * motion.fps if motion.num_frames > 1 else 0 * horizontal
-    speed_legs_s = np.linalg.norm(velocity, axis=-1) / leg  # (T, 2, F)
+    speed_legs_s = lengths(velocity) / leg  # (T, 2, F)
     enter = np.any((heights < ENTER_HEIGHT_OF_LEG * leg) & (speed_legs_s < ENTER_SPEED_LEGS_S), axis=1)
     stay = np.any((heights < EXIT_HEIGHT_OF_LEG * leg) & (speed_legs_s < EXIT_SPEED_LEGS_S), axis=1)
     contacts = _hysteresis(enter, stay)  # (T, F)
@@ -127,7 +127,7 @@ def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float
         )
     # 3. two-joint IK per leg on the frames whose ankle has to move (elsewhere the input stays exact)
     for foot in np.flatnonzero(legs).tolist():
-        moved = np.linalg.norm(targets[:, foot] - positions[:, chains[foot, 2]], axis=-1) > 1e-9 * leg
+        moved = lengths(targets[:, foot] - positions[:, chains[foot, 2]]) > 1e-9 * leg
         if np.any(moved):
             parent = skeleton.parents[chains[foot, 0]]
             local = _leg_ik(world_rotations, positions, parent, chains[foot], targets[:, foot])  # (T, 3, 3)
@@ -281,9 +281,9 @@ def _pelvis_lowering(
     window, so the result never falls below it.
     """
     hips, knees, ankles = (positions[:, chains[:, i]] for i in range(3))  # (T, F, 3) each
-    thigh = np.linalg.norm(knees - hips, axis=-1)  # (T, F)
-    shin = np.linalg.norm(ankles - knees, axis=-1)
-    reach = np.maximum(np.linalg.norm(ankles - hips, axis=-1), SOFT_REACH * (thigh + shin))
+    thigh = lengths(knees - hips)  # (T, F)
+    shin = lengths(ankles - knees)
+    reach = np.maximum(lengths(ankles - hips), SOFT_REACH * (thigh + shin))
     reach = np.minimum(reach, (1 - 1e-9) * (thigh + shin))
     offset = targets - hips  # (T, F, 3)
     horizontal_sq = offset[..., 0] ** 2 + offset[..., 2] ** 2
@@ -299,7 +299,7 @@ def _pelvis_lowering(
 
 def _angle(u: FloatArray, v: FloatArray) -> FloatArray:
     """Angles (N,) in radians between vectors (N, 3)."""
-    cosine = np.sum(u * v, -1) / np.maximum(np.linalg.norm(u, axis=-1) * np.linalg.norm(v, axis=-1), 1e-300)
+    cosine = np.sum(u * v, -1) / np.maximum(lengths(u) * lengths(v), 1e-300)
     return np.arccos(np.clip(cosine, -1.0, 1.0))
 
 
@@ -317,8 +317,8 @@ def _leg_ik(
     upper_world, knee_world, ankle_world = (world_rotations[:, j] for j in joints)
     hip, knee, ankle = (positions[:, j] for j in joints)
     normal = np.cross(ankle - hip, knee - hip)  # (T, 3)
-    size = np.linalg.norm(normal, axis=-1)
-    bent = size > 1e-6 * np.linalg.norm(ankle - hip, axis=-1) * np.linalg.norm(knee - hip, axis=-1)
+    size = lengths(normal)
+    bent = size > 1e-6 * lengths(ankle - hip) * lengths(knee - hip)
     normal = normal / np.maximum(size, 1e-300)[:, None]
     local_normal = np.einsum("tji,tj->ti", upper_world, normal)  # (T, 3) in the upper leg's frame
     across = np.cross((knee - hip)[0] @ upper_world[0], [1e-3, 1e-2, 1.0])  # never bent: any axis across it
@@ -326,15 +326,15 @@ def _leg_ik(
     mean_normal = mean_normal / max(float(np.linalg.norm(mean_normal)), 1e-300)
     axes = np.where(bent[:, None], normal, upper_world @ mean_normal)  # (T, 3)
 
-    thigh, shin = np.linalg.norm(knee - hip, axis=-1), np.linalg.norm(ankle - knee, axis=-1)  # (T,)
+    thigh, shin = lengths(knee - hip), lengths(ankle - knee)  # (T,)
     eps = 1e-9 * (thigh + shin)
-    distance = np.clip(np.linalg.norm(targets - hip, axis=-1), np.abs(thigh - shin) + eps, thigh + shin - eps)
+    distance = np.clip(lengths(targets - hip), np.abs(thigh - shin) + eps, thigh + shin - eps)
     hip_angle = np.arccos(np.clip((thigh**2 + distance**2 - shin**2) / (2 * thigh * distance), -1, 1))
     knee_angle = np.arccos(np.clip((thigh**2 + shin**2 - distance**2) / (2 * thigh * shin), -1, 1))
     bend = to_matrix(axes * (knee_angle - _angle(hip - knee, ankle - knee))[:, None])  # (T, 3, 3) at the knee
     turn = to_matrix(axes * (hip_angle - _angle(ankle - hip, knee - hip))[:, None])  # at the hip
     cross = np.cross(ankle - hip, targets - hip)
-    swing_axis = cross / np.maximum(np.linalg.norm(cross, axis=-1), 1e-300)[:, None]
+    swing_axis = cross / np.maximum(lengths(cross), 1e-300)[:, None]
     swing = to_matrix(swing_axis * _angle(ankle - hip, targets - hip)[:, None])
     new_upper = swing @ turn @ upper_world
     new_knee = new_upper @ np.swapaxes(upper_world, -1, -2) @ bend @ knee_world
