@@ -7,6 +7,8 @@ height), so metres, centimetres and inches behave alike.
 
 from __future__ import annotations
 
+from typing import Final
+
 import numpy as np
 
 from elastyle.body import Limbs, find_limbs, leg_length
@@ -18,7 +20,7 @@ from elastyle.types import BoolArray, FloatArray, IntArray
 GROUND_PERCENTILE = 5.0  # a foot joint's ground level: this percentile of its heights over the clip
 # the nearest sample to that percentile: numpy's interpolating method costs a 30 ms import (numpy.ma) on
 # its first call in a process, a tenth of a command-line transfer
-PERCENTILE_METHOD = "nearest"
+PERCENTILE_METHOD: Final = "nearest"
 ENTER_HEIGHT_OF_LEG = 0.03  # a toe or ankle this close to its ground level (2.4 cm on an 80 cm leg) ...
 ENTER_SPEED_LEGS_S = 0.5  # ... and slower than this (40 cm/s) starts a contact
 EXIT_HEIGHT_OF_LEG = 0.06  # the contact lasts until both joints are higher than this ...
