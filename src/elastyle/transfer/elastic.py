@@ -97,11 +97,10 @@ class StyleWindows:
         """Rows [first, stop) of the library as B-frame rows: row n holds frames n .. n+B-1 side by side
         (stop - first, B*Z), zeros past the library's end. The whole copy is cached when it is at most
         `BLOCKED_BYTES`; otherwise rows are built per call (for many queries, whose product costs more)."""
-        total, width = self.frames.shape
         if block * self.frames.nbytes > self.BLOCKED_BYTES:
             return self._build_rows(block, first, stop)
         if block not in self._blocked:
-            self._blocked[block] = self._build_rows(block, 0, total)
+            self._blocked[block] = self._build_rows(block, 0, self.frames.shape[0])
         return self._blocked[block][first:stop]
 
     def _build_rows(self, block: int, first: int, stop: int) -> Float32Array:
@@ -121,9 +120,8 @@ class StyleWindows:
         block = block or self.block_frames(count)
         num_blocks = -(-length // block)
         flat = queries.reshape(count, -1)
-        unit = np.zeros(
-            (count, num_blocks * block, width), dtype=np.float32
-        )  # zero frames pad the last block
+        # unit queries, with zero frames padding the last block
+        unit = np.zeros((count, num_blocks * block, width), dtype=np.float32)
         unit[:, :length] = queries / np.maximum(np.linalg.norm(flat, axis=1), 1e-8).reshape(-1, 1, 1)
         query_blocks = unit.reshape(count * num_blocks, block * width)
         span = (num_blocks - 1) * block  # window n's last block starts at library frame n + span
@@ -145,7 +143,8 @@ class StyleWindows:
 
         block: frames per block B (default: `block_frames`); any B from 1 to L gives the same result.
         """
-        return np.concatenate([dots for _, _, dots in self._similarity_chunks(queries, block)], axis=1)
+        chunks = [dots for _, _, dots in self._similarity_chunks(queries, block)]
+        return np.concatenate(chunks, axis=1) if chunks else np.zeros((len(queries), 0), np.float32)
 
     def best(self, queries: FloatArray) -> tuple[IntArray, FloatArray]:
         """For queries (Q, L, Z): the best window index (Q,) and its cosine similarity (Q,).
