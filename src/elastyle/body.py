@@ -97,6 +97,11 @@ class Limbs:
     hips: IntArray
     hands: IntArray
 
+    @property
+    def feet(self) -> IntArray:
+        """Toes and ankles (2F,): with their ancestors, every joint a foot's position depends on."""
+        return np.concatenate([self.toes, self.ankles])
+
 
 def _deepest_descendant(skeleton: Skeleton, joint: int) -> int:
     depth = {joint: 0}

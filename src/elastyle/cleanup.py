@@ -49,7 +49,7 @@ def detect_contacts(motion: Motion, positions: FloatArray | None = None) -> Bool
     if len(limbs.toes) == 0:
         return np.zeros((motion.num_frames, 0), dtype=bool)
     if positions is None:
-        positions = motion.positions(np.concatenate([limbs.toes, limbs.ankles]))  # (T, J, 3)
+        positions = motion.positions(limbs.feet)  # (T, J, 3), the legs only
     leg = leg_length(motion.skeleton, limbs)
     joints = np.stack([limbs.toes, limbs.ankles])  # (2, F) toe and ankle of each foot
     heights = positions[:, joints, 1]  # (T, 2, F)
@@ -97,8 +97,7 @@ def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
         return Motion(skeleton, motion.rotations.copy(), motion.translations.copy(), motion.fps)
-    legs_and_feet = np.concatenate([limbs.toes, limbs.ankles])
-    world_rotations, positions = motion.world(legs_and_feet)
+    world_rotations, positions = motion.world(limbs.feet)  # the legs and what they hang from
     contacts = detect_contacts(motion, positions) if contacts is None else _checked(contacts, motion, limbs)
     leg = leg_length(skeleton, limbs)
     ground = ground_level(motion, positions)
@@ -124,9 +123,8 @@ def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float
         shift = np.zeros((motion.num_frames, 3))
         shift[:, 1] = -lowering
         translations = _shift_pelvis(motion, world_rotations, shift)
-        world_rotations, positions = Motion(skeleton, rotations, translations, motion.fps).world(
-            legs_and_feet
-        )
+        lowered = Motion(skeleton, rotations, translations, motion.fps)
+        world_rotations, positions = lowered.world(limbs.feet)
     # 3. two-joint IK per leg on the frames whose ankle has to move (elsewhere the input stays exact)
     for foot in np.flatnonzero(legs).tolist():
         moved = lengths(targets[:, foot] - positions[:, chains[foot, 2]]) > 1e-9 * leg
@@ -148,7 +146,7 @@ def adjust_root_speed(motion: Motion, contacts: BoolArray, smooth_s: float = 0.2
     contacts = _checked(contacts, motion, limbs)
     if motion.num_frames < 2 or contacts.shape[1] == 0:
         return Motion(motion.skeleton, motion.rotations.copy(), motion.translations.copy(), motion.fps)
-    world_rotations, positions = motion.world(np.concatenate([limbs.toes, limbs.ankles]))
+    world_rotations, positions = motion.world(limbs.feet)
     points, weights = _pivots(positions, limbs, leg_length(motion.skeleton, limbs))  # (T, F, 2, 3), (T, F, 2)
     planted = (contacts[1:] & contacts[:-1])[..., None] * 0.5 * (weights[1:] + weights[:-1])  # (T-1, F, 2)
     steps = np.sum(planted[..., None] * np.diff(points, axis=0), axis=(1, 2))  # (T-1, 3)

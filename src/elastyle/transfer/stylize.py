@@ -277,8 +277,9 @@ def transfer(
     # the content's own skeleton (its offsets and End Sites), so the output drops into the content's rig
     motion = Motion(content.skeleton, decoded.rotations, decoded.translations, fps)
     if config.cleanup:
-        contacts = detect_contacts(motion) if config.adjust_root else None  # else found by clean_feet
-        if contacts is not None:
+        contacts = None  # found by clean_feet from its own forward kinematics
+        if config.adjust_root:
+            contacts = detect_contacts(motion)
             motion = adjust_root_speed(motion, contacts)
         motion = clean_feet(motion, contacts)
     motion = motion.resample(content.fps)
