@@ -7,7 +7,9 @@ deepest joint is the toe and the toe's parent the ankle; thresholds elsewhere ar
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -97,7 +99,7 @@ class Limbs:
     hips: IntArray
     hands: IntArray
 
-    @property
+    @cached_property
     def feet(self) -> IntArray:
         """Toes and ankles (2F,): with their ancestors, every joint a foot's position depends on."""
         return np.concatenate([self.toes, self.ankles])
@@ -111,7 +113,17 @@ def _deepest_descendant(skeleton: Skeleton, joint: int) -> int:
     return max(depth, key=lambda j: (depth[j], -j))
 
 
+_LIMBS: weakref.WeakKeyDictionary[Skeleton, Limbs] = weakref.WeakKeyDictionary()
+
+
 def find_limbs(skeleton: Skeleton) -> Limbs:
+    """The skeleton's legs and hands (found once per skeleton)."""
+    if skeleton not in _LIMBS:
+        _LIMBS[skeleton] = _limbs_of(skeleton)
+    return _LIMBS[skeleton]
+
+
+def _limbs_of(skeleton: Skeleton) -> Limbs:
     partner = skeleton.mirror_pairs()
     pelvis = skeleton.pelvis
     legs = [c for c in skeleton.children(pelvis) if partner[c] != c]
@@ -131,7 +143,10 @@ def find_limbs(skeleton: Skeleton) -> Limbs:
             if partner[j] != j and partner[skeleton.parents[j]] == skeleton.parents[j]
         ]
         hands = [_deepest_descendant(skeleton, r) for r in roots]
-    return Limbs(np.array(toes), np.array(ankles), np.array(legs), np.array(hands, dtype=np.int64))
+    arrays = [np.array(joints, dtype=np.int64) for joints in (toes, ankles, legs, hands)]
+    for array in arrays:
+        array.flags.writeable = False  # shared by every caller
+    return Limbs(*arrays)
 
 
 def leg_length(skeleton: Skeleton, limbs: Limbs) -> float:

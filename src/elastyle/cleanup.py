@@ -125,13 +125,14 @@ def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float
         translations = _shift_pelvis(motion, world_rotations, shift)
         lowered = Motion(skeleton, rotations, translations, motion.fps)
         world_rotations, positions = lowered.world(limbs.feet)
-    # 3. two-joint IK per leg on the frames whose ankle has to move (elsewhere the input stays exact)
-    for foot in np.flatnonzero(legs).tolist():
-        moved = lengths(targets[:, foot] - positions[:, chains[foot, 2]]) > 1e-9 * leg
-        if np.any(moved):
-            parent = skeleton.parents[chains[foot, 0]]
-            local = _leg_ik(world_rotations, positions, parent, chains[foot], targets[:, foot])  # (T, 3, 3)
-            rotations[np.flatnonzero(moved)[:, None], chains[foot]] = local[moved]
+    # 3. two-joint IK, every leg at once; only frames whose ankle has to move change (elsewhere the input stays exact)
+    chains = chains[legs]
+    moved = lengths(targets[:, legs] - positions[:, chains[:, 2]]) > 1e-9 * leg  # (T, F_legs)
+    if np.any(moved):
+        parents = skeleton.parents[chains[:, 0]]
+        local = _leg_ik(world_rotations, positions, parents, chains, targets[:, legs])  # (T, F_legs, 3, 3)
+        frames, feet = np.nonzero(moved)
+        rotations[frames[:, None], chains[feet]] = local[frames, feet]
     return Motion(skeleton, rotations, translations, motion.fps)
 
 
@@ -222,24 +223,40 @@ def _pin_corrections(
     Between contacts the offset eases back to zero over `ramp_frames`, or straight to the next contact's
     offset across gaps up to `bridge_frames` (a swing): cubic Hermite, matching value and slope at the ends.
     """
-    corrections = np.zeros((points.shape[0], 3))
-    knots: list[tuple[float, FloatArray, FloatArray]] = []  # (frame, offset, slope per frame) at contact ends
-    for start, stop in _runs(contact):
-        # undo the held pivot's steps (the weights blend, so a roll from heel to toe is no step)
-        share = 0.5 * (weights[start + 1 : stop] + weights[start : stop - 1])  # (N-1, 2)
-        steps = np.sum(share[..., None] * np.diff(points[start:stop], axis=0), axis=1)  # (N-1, 3)
-        offsets = -np.concatenate([np.zeros((1, 3)), np.cumsum(steps, axis=0)])  # (N, 3)
-        offsets -= offsets.mean(axis=0)
-        offsets[:, 1] = 0.0
-        corrections[start:stop] = offsets
-        slopes = np.diff(offsets, axis=0) if stop - start > 1 else np.zeros((1, 3))
-        knots += [(start, offsets[0], slopes[0]), (stop - 1, offsets[-1], slopes[-1])]
-    if ramp_frames <= 0 or not knots:
+    num_frames = points.shape[0]
+    corrections = np.zeros((num_frames, 3))
+    runs = np.array(_runs(contact), dtype=np.int64).reshape(-1, 2)  # (R, 2) [start, stop) of each contact
+    if len(runs) == 0:
         return corrections
+    starts, stops = runs[:, 0], runs[:, 1]
+    # undo the held pivot's steps (the weights blend, so a roll from heel to toe is no step)
+    share = 0.5 * (weights[1:] + weights[:-1])  # (T-1, 2)
+    steps = np.einsum("tk,tkc->tc", share, np.diff(points, axis=0))  # (T-1, 3)
+    steps *= (contact[1:] & contact[:-1])[:, None]  # only steps within a contact
+    travelled = np.concatenate([np.zeros((1, 3)), np.cumsum(steps, axis=0)])  # (T, 3)
+    held = np.flatnonzero(contact)  # frames in a contact, run after run
+    run = np.repeat(np.arange(len(runs)), stops - starts)  # (H,) each held frame's contact
+    offsets = travelled[starts[run]] - travelled[held]  # (H, 3) from the contact's first frame
+    first_of_run = np.concatenate([[0], np.cumsum(stops - starts)[:-1]])
+    offsets -= (np.add.reduceat(offsets, first_of_run, axis=0) / (stops - starts)[:, None])[run]
+    offsets[:, 1] = 0.0
+    corrections[held] = offsets
+    if ramp_frames <= 0:
+        return corrections
+    long_enough = (stops - starts > 1)[:, None]
+    start_slopes = np.where(
+        long_enough, corrections[np.minimum(starts + 1, num_frames - 1)] - corrections[starts], 0
+    )
+    end_slopes = np.where(long_enough, corrections[stops - 1] - corrections[np.maximum(stops - 2, 0)], 0)
+    # knots (frame, offset, slope per frame) at the contacts' ends, eased from and to zero at the clip's ends
     zero = np.zeros(3)
-    chain = [(knots[0][0] - ramp_frames, zero, zero), *knots, (knots[-1][0] + ramp_frames, zero, zero)]
+    knots: list[tuple[float, FloatArray, FloatArray]] = [(starts[0] - ramp_frames, zero, zero)]
+    for i in range(len(runs)):
+        knots += [(starts[i], corrections[starts[i]], start_slopes[i]),
+                  (stops[i] - 1, corrections[stops[i] - 1], end_slopes[i])]  # fmt: skip
+    knots.append((stops[-1] - 1 + ramp_frames, zero, zero))
     spans = []
-    for left, right in zip(chain[::2], chain[1::2]):  # the gaps: before, between and after the contacts
+    for left, right in zip(knots[::2], knots[1::2]):  # the gaps: before, between and after the contacts
         if right[0] - left[0] > bridge_frames:  # longer than a swing: ease out to zero and back in
             spans += [
                 (left, (left[0] + ramp_frames, zero, zero)),
@@ -247,15 +264,23 @@ def _pin_corrections(
             ]
         else:
             spans.append((left, right))
-    for (first, start_value, start_slope), (last, end_value, end_slope) in spans:
-        frames = np.arange(max(int(np.floor(first)) + 1, 0), min(int(np.ceil(last)), points.shape[0]))
-        u = ((frames - first) / (last - first))[:, None]  # (N, 1) in (0, 1)
-        corrections[frames] = (
-            (2 * u**3 - 3 * u**2 + 1) * start_value
-            + (u**3 - 2 * u**2 + u) * (last - first) * start_slope
-            + (3 * u**2 - 2 * u**3) * end_value
-            + (u**3 - u**2) * (last - first) * end_slope
-        )
+    # every span's frames at once: cubic Hermite between its ends
+    first, last = (np.array([span[i][0] for span in spans], dtype=np.float64) for i in (0, 1))  # (S,)
+    start_value, start_slope, end_value, end_slope = (
+        np.array([span[i][k] for span in spans]) for i, k in ((0, 1), (0, 2), (1, 1), (1, 2))
+    )  # (S, 3) each
+    low = np.maximum(np.floor(first).astype(np.int64) + 1, 0)
+    counts = np.maximum(np.minimum(np.ceil(last).astype(np.int64), num_frames) - low, 0)
+    span = np.repeat(np.arange(len(spans)), counts)  # (N,) each eased frame's span
+    frames = low[span] + np.arange(len(span)) - np.repeat(np.cumsum(counts) - counts, counts)
+    width = (last - first)[span, None]  # (N, 1)
+    u = (frames - first[span])[:, None] / width  # (N, 1) in (0, 1)
+    corrections[frames] = (
+        (2 * u**3 - 3 * u**2 + 1) * start_value[span]
+        + (u**3 - 2 * u**2 + u) * width * start_slope[span]
+        + (3 * u**2 - 2 * u**3) * end_value[span]
+        + (u**3 - u**2) * width * end_slope[span]
+    )
     return corrections
 
 
@@ -298,47 +323,66 @@ def _pelvis_lowering(
 
 
 def _angle(u: FloatArray, v: FloatArray) -> FloatArray:
-    """Angles (N,) in radians between vectors (N, 3)."""
+    """Angles (...) in radians between vectors (..., 3)."""
     cosine = np.sum(u * v, -1) / np.maximum(lengths(u) * lengths(v), 1e-300)
     return np.arccos(np.clip(cosine, -1.0, 1.0))
 
 
 def _leg_ik(
-    world_rotations: FloatArray, positions: FloatArray, parent: int, joints: IntArray, targets: FloatArray
+    world_rotations: FloatArray,
+    positions: FloatArray,
+    parents: IntArray,
+    chains: IntArray,
+    targets: FloatArray,
 ) -> FloatArray:
-    """Analytic two-joint IK: local exp maps (T, 3, 3) of upper leg, knee and ankle putting the ankle on targets.
+    """Analytic two-joint IK of F legs at once: local exp maps (T, F, 3, 3) of upper leg, knee and ankle
+    putting each ankle on its target.
 
-    world_rotations: (T, J, 3, 3); positions: (T, J, 3); joints: (3,) upper leg, knee, ankle; targets: (T, 3).
+    world_rotations: (T, J, 3, 3); positions: (T, J, 3); parents: (F,) each upper leg's parent (-1: none);
+    chains: (F, 3) upper leg, knee, ankle; targets: (T, F, 3).
     The knee bends in its own plane (normal (ankle - hip) x (knee - hip); a straight leg borrows the clip's
     mean normal in the upper leg's frame) to get the hip-target distance by the law of cosines, the leg
     turns back in that plane onto its old hip-ankle line, then swings that line onto the target (minimal
     arc). The ankle keeps its world rotation, so the foot keeps its orientation.
     """
-    upper_world, knee_world, ankle_world = (world_rotations[:, j] for j in joints)
-    hip, knee, ankle = (positions[:, j] for j in joints)
-    normal = np.cross(ankle - hip, knee - hip)  # (T, 3)
+    upper_world, knee_world, ankle_world = (
+        world_rotations[:, chains[:, i]] for i in range(3)
+    )  # (T, F, 3, 3)
+    hip, knee, ankle = (positions[:, chains[:, i]] for i in range(3))  # (T, F, 3)
+    normal = np.cross(ankle - hip, knee - hip)  # (T, F, 3)
     size = lengths(normal)
-    bent = size > 1e-6 * lengths(ankle - hip) * lengths(knee - hip)
-    normal = normal / np.maximum(size, 1e-300)[:, None]
-    local_normal = np.einsum("tji,tj->ti", upper_world, normal)  # (T, 3) in the upper leg's frame
-    across = np.cross((knee - hip)[0] @ upper_world[0], [1e-3, 1e-2, 1.0])  # never bent: any axis across it
-    mean_normal = local_normal[bent].sum(axis=0) if np.any(bent) else across
-    mean_normal = mean_normal / max(float(np.linalg.norm(mean_normal)), 1e-300)
-    axes = np.where(bent[:, None], normal, upper_world @ mean_normal)  # (T, 3)
+    bent = size > 1e-6 * lengths(ankle - hip) * lengths(knee - hip)  # (T, F)
+    normal = normal / np.maximum(size, 1e-300)[..., None]
+    local_normal = np.einsum("tfji,tfj->tfi", upper_world, normal)  # (T, F, 3) in the upper leg's frame
+    across = np.cross(np.einsum("fj,fji->fi", (knee - hip)[0], upper_world[0]), [1e-3, 1e-2, 1.0])  # (F, 3)
+    mean_normal = np.where(
+        np.any(bent, axis=0)[:, None], np.sum(local_normal * bent[..., None], axis=0), across
+    )
+    mean_normal = mean_normal / np.maximum(lengths(mean_normal, keepdims=True), 1e-300)  # (F, 3)
+    axes = np.where(bent[..., None], normal, np.einsum("tfij,fj->tfi", upper_world, mean_normal))  # (T, F, 3)
 
-    thigh, shin = lengths(knee - hip), lengths(ankle - knee)  # (T,)
+    thigh, shin = lengths(knee - hip), lengths(ankle - knee)  # (T, F)
     eps = 1e-9 * (thigh + shin)
     distance = np.clip(lengths(targets - hip), np.abs(thigh - shin) + eps, thigh + shin - eps)
     hip_angle = np.arccos(np.clip((thigh**2 + distance**2 - shin**2) / (2 * thigh * distance), -1, 1))
     knee_angle = np.arccos(np.clip((thigh**2 + shin**2 - distance**2) / (2 * thigh * shin), -1, 1))
-    bend = to_matrix(axes * (knee_angle - _angle(hip - knee, ankle - knee))[:, None])  # (T, 3, 3) at the knee
-    turn = to_matrix(axes * (hip_angle - _angle(ankle - hip, knee - hip))[:, None])  # at the hip
     cross = np.cross(ankle - hip, targets - hip)
-    swing_axis = cross / np.maximum(lengths(cross), 1e-300)[:, None]
-    swing = to_matrix(swing_axis * _angle(ankle - hip, targets - hip)[:, None])
+    swing_axis = cross / np.maximum(lengths(cross), 1e-300)[..., None]
+    # the knee's bend, the hip's turn back onto the hip-ankle line, and the swing onto the target
+    bend, turn, swing = to_matrix(
+        np.stack(
+            [
+                axes * (knee_angle - _angle(hip - knee, ankle - knee))[..., None],
+                axes * (hip_angle - _angle(ankle - hip, knee - hip))[..., None],
+                swing_axis * _angle(ankle - hip, targets - hip)[..., None],
+            ]
+        )
+    )  # (T, F, 3, 3) each
     new_upper = swing @ turn @ upper_world
     new_knee = new_upper @ np.swapaxes(upper_world, -1, -2) @ bend @ knee_world
-    parent_world = world_rotations[:, parent] if parent >= 0 else np.eye(3)
+    parent_world = np.where(
+        (parents >= 0)[:, None, None], world_rotations[:, np.maximum(parents, 0)], np.eye(3)
+    )  # (T, F, 3, 3)
     local = [np.swapaxes(parent_world, -1, -2) @ new_upper, np.swapaxes(new_upper, -1, -2) @ new_knee]
     local.append(np.swapaxes(new_knee, -1, -2) @ ankle_world)
-    return from_matrix(np.stack(local, axis=1))
+    return from_matrix(np.stack(local, axis=2))

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -38,7 +39,7 @@ class FeatureSpec:
     reference_rotations: FloatArray
     forward_local: FloatArray
 
-    @property
+    @cached_property
     def pose_joints(self) -> IntArray:
         """Joints whose rotations are features (J_pose,): the pelvis and everything below it."""
         pelvis = self.skeleton.pelvis
@@ -48,7 +49,7 @@ class FeatureSpec:
                 below.append(joint)
         return np.array(below, dtype=np.int64)
 
-    @property
+    @cached_property
     def above_joints(self) -> IntArray:
         """Joints above the pelvis (A,): not features, carried from the content in the `RootPath`."""
         above = np.ones(self.skeleton.num_joints, dtype=bool)

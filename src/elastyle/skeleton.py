@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -25,6 +26,7 @@ class Skeleton:
     parents: (J,) parent index per joint, -1 for the root; parents[j] < j.
     offsets: (J, 3) rest offset of each joint from its parent, in the file's length unit.
     end_sites: (J, 3) End Site offset of each joint (NaN where the joint has none).
+    A skeleton is immutable: lookups derived from it (pelvis, mirror pairs, limbs) are computed once.
     """
 
     names: tuple[str, ...]
@@ -61,7 +63,7 @@ class Skeleton:
                 joint = int(self.parents[joint])
         return np.flatnonzero(needed)
 
-    @property
+    @cached_property
     def pelvis(self) -> int:
         """The centre joint whose translation and heading carry the body: the first joint that branches."""
         for joint in range(self.num_joints):
@@ -91,6 +93,10 @@ class Skeleton:
 
     def mirror_pairs(self) -> IntArray:
         """(J,) index of each joint's left/right partner (itself for centre joints), from joint names."""
+        return self._mirror_pairs
+
+    @cached_property
+    def _mirror_pairs(self) -> IntArray:
         partner = np.arange(self.num_joints)
         lookup = {name: j for j, name in enumerate(self.names)}
         for j, name in enumerate(self.names):
@@ -102,6 +108,7 @@ class Skeleton:
                 if lookup.get(other, j) != j:
                     partner[j] = lookup[other]
                     break
+        partner.flags.writeable = False  # shared by every caller
         return partner
 
     def rest_positions(self) -> FloatArray:

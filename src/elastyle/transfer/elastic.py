@@ -55,9 +55,9 @@ class StyleWindows:
 
     The windows are never materialised (an (N, L*Z) matrix would be L times the library). A window's dot
     product with a query is a sum over blocks of B frames: query block b (B*Z values) times the library's
-    B frames from n + bB on. With the library stored as overlapping B-frame rows (T_s, B*Z), one matrix
-    product of the query blocks with those rows, then ceil(L/B) shifted additions, gives every window at
-    once. B trades the product's inner size (B*Z, larger runs nearer the machine's peak) against its rows
+    B frames from n + bB on. With the library stored as overlapping B-frame columns (B*Z, T_s), one matrix
+    product of the query blocks with those columns, then a sum over ceil(L/B) shifted views, gives every
+    window at once. B trades the product's inner size (B*Z, larger runs nearer the machine's peak) against its rows
     (Q * ceil(L/B)): it is chosen per call from the number of queries. The library is processed in chunks,
     so the products stay a few megabytes.
 
@@ -82,6 +82,7 @@ class StyleWindows:
         for start, end in zip(clip_starts, ends):
             valid[start : max(start, end - patch_frames + 1)] = True
         self.valid: BoolArray = valid
+        self._invalid: BoolArray = ~valid
         self._blocked: dict[int, Float32Array] = {}
 
     def block_frames(self, num_queries: int) -> int:
@@ -93,24 +94,25 @@ class StyleWindows:
                 return block
         return length
 
-    def block_rows(self, block: int, first: int, stop: int) -> Float32Array:
-        """Rows [first, stop) of the library as B-frame rows: row n holds frames n .. n+B-1 side by side
-        (stop - first, B*Z), zeros past the library's end. The whole copy is cached when it is at most
-        `BLOCKED_BYTES`; otherwise rows are built per call (for many queries, whose product costs more)."""
+    def block_columns(self, block: int, first: int, stop: int) -> Float32Array:
+        """Library rows [first, stop) as B-frame blocks, one per column: column n holds frames n .. n+B-1
+        (B*Z, stop - first), zeros past the library's end (columns make the products' small-row GEMM
+        faster than rows would). The whole copy is cached when it is at most `BLOCKED_BYTES`; otherwise
+        columns are built per call (for many queries, whose product costs more)."""
         if block * self.frames.nbytes > self.BLOCKED_BYTES:
-            return self._build_rows(block, first, stop)
+            return self._build_columns(block, first, stop)
         if block not in self._blocked:
-            self._blocked[block] = self._build_rows(block, 0, self.frames.shape[0])
-        return self._blocked[block][first:stop]
+            self._blocked[block] = self._build_columns(block, 0, self.frames.shape[0])
+        return self._blocked[block][:, first:stop]
 
-    def _build_rows(self, block: int, first: int, stop: int) -> Float32Array:
+    def _build_columns(self, block: int, first: int, stop: int) -> Float32Array:
         total, width = self.frames.shape
         frames = self.frames[first : min(stop + block - 1, total)]
         padding = stop + block - 1 - first - frames.shape[0]
         if padding > 0:
             frames = np.concatenate([frames, np.zeros((padding, width), np.float32)])
         rows = np.lib.stride_tricks.sliding_window_view(frames, block, axis=0)  # (stop - first, Z, B)
-        return np.ascontiguousarray(rows.transpose(0, 2, 1)).reshape(stop - first, block * width)
+        return np.ascontiguousarray(rows.transpose(2, 1, 0)).reshape(block * width, stop - first)
 
     def _similarity_chunks(
         self, queries: FloatArray, block: int | None
@@ -119,23 +121,29 @@ class StyleWindows:
         count, length, width = queries.shape
         block = block or self.block_frames(count)
         num_blocks = -(-length // block)
-        flat = queries.reshape(count, -1)
         # unit queries, with zero frames padding the last block
         unit = np.zeros((count, num_blocks * block, width), dtype=np.float32)
-        unit[:, :length] = queries / np.maximum(np.linalg.norm(flat, axis=1), 1e-8).reshape(-1, 1, 1)
+        unit[:, :length] = queries
+        unit /= np.maximum(np.sqrt(np.einsum("qfz,qfz->q", unit, unit)), 1e-8)[:, None, None]
         query_blocks = unit.reshape(count * num_blocks, block * width)
         span = (num_blocks - 1) * block  # window n's last block starts at library frame n + span
-        # the products, and block rows built per chunk, stay within CHUNK_BYTES each
+        # the products, and block columns built per chunk, stay within CHUNK_BYTES each
         chunk = max(self.MIN_CHUNK_WINDOWS, self.CHUNK_BYTES // (4 * max(count * num_blocks, block * width)))
         for first in range(0, self.num_windows, chunk):
             last = min(first + chunk, self.num_windows)
-            rows = self.block_rows(block, first, last + span)
-            products = (query_blocks @ rows.T).reshape(count, num_blocks, -1)
-            dots = products[:, 0, : last - first].copy()
-            for b in range(1, num_blocks):  # window n's block b is library row n + bB
-                dots += products[:, b, b * block : b * block + last - first]
+            columns = self.block_columns(block, first, last + span)  # (B*Z, last - first + span)
+            products = query_blocks @ columns  # (Q * num_blocks, last - first + span)
+            # window n's block b is library row n + bB: a strided view (Q, num_blocks, n) of the products
+            item, row = products.itemsize, products.shape[1]
+            shifted = np.lib.stride_tricks.as_strided(
+                products,
+                (count, num_blocks, last - first),
+                (num_blocks * row * item, (row + block) * item, item),
+                writeable=False,
+            )
+            dots = shifted.sum(axis=1) if num_blocks > 1 else shifted[:, 0].copy()
             dots *= self.inverse_norms[first:last]
-            np.copyto(dots, np.float32(-np.inf), where=~self.valid[first:last])
+            np.copyto(dots, np.float32(-np.inf), where=self._invalid[first:last])
             yield first, last, dots
 
     def similarities(self, queries: FloatArray, block: int | None = None) -> Float32Array:
@@ -156,9 +164,10 @@ class StyleWindows:
         rows = np.arange(len(queries))
         for first, _, dots in self._similarity_chunks(queries, None):
             local = np.argmax(dots, axis=1)
-            better = dots[rows, local] > value
+            local_value = dots[rows, local]
+            better = local_value > value
             index[better] = first + local[better]
-            value[better] = dots[rows, local][better]
+            value[better] = local_value[better]
         return index, value
 
 
