@@ -112,7 +112,7 @@ def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float
         )
     toe_heights = positions[:, limbs.toes, 1] + targets[..., 1] - positions[:, limbs.ankles, 1]  # (T, F)
     targets[..., 1] += np.maximum(0.0, ground - np.minimum(toe_heights, targets[..., 1]))
-    # 2. lower the pelvis where a target is out of reach, then redo forward kinematics
+    # 2. lower the pelvis where a target is out of reach: the pelvis and every joint below it move with it
     knees = skeleton.parents[limbs.ankles]
     chains = np.stack([skeleton.parents[knees], knees, limbs.ankles], axis=1)  # (F, 3) upper leg, knee, ankle
     # the upper leg must hang below the leg's root: a two-bone leg off the pelvis has no knee to bend
@@ -123,8 +123,11 @@ def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float
         shift = np.zeros((motion.num_frames, 3))
         shift[:, 1] = -lowering
         translations = _shift_pelvis(motion, world_rotations, shift)
-        lowered = Motion(skeleton, rotations, translations, motion.fps)
-        world_rotations, positions = lowered.world(limbs.feet)
+        carried = [
+            j for j in skeleton.with_ancestors(limbs.feet).tolist() if _is_below(skeleton, j, skeleton.pelvis)
+        ]
+        positions = positions.copy()
+        positions[:, carried] += shift[:, None]
     # 3. two-joint IK, every leg at once; only frames whose ankle has to move change (elsewhere the input stays exact)
     chains = chains[legs]
     moved = lengths(targets[:, legs] - positions[:, chains[:, 2]]) > 1e-9 * leg  # (T, F_legs)

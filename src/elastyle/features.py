@@ -20,7 +20,16 @@ import numpy as np
 
 from elastyle.body import heading_yaw, pelvis_forward_local, smooth, yaw_matrices
 from elastyle.motion import Motion
-from elastyle.rotations import continuous_quats, from_matrix, from_quat, multiply, to_matrix, to_quat
+from elastyle.rotations import (
+    continuous_quats,
+    from_matrix,
+    from_quat,
+    matrix_to_quat,
+    multiply,
+    quat_multiply,
+    to_matrix,
+    to_quat,
+)
 from elastyle.skeleton import Skeleton
 from elastyle.types import FloatArray, IntArray
 
@@ -70,33 +79,34 @@ class FeatureSpec:
         skeleton = motions[0].skeleton
         forward_local = pelvis_forward_local(skeleton)
         identity = FeatureSpec(skeleton, np.zeros((skeleton.num_joints, 3)), forward_local)
-        quats = np.concatenate(
-            [to_quat(identity._heading_relative_rotations(m)[0]) for m in motions]
-        )  # (T, J, 4)
+        quats = np.concatenate([identity._heading_relative_quats(m)[0] for m in motions])  # (T, J, 4)
         quats = quats * np.where(quats[..., 3:] < 0, -1.0, 1.0)
         mean = quats.mean(axis=0)  # (J, 4) dominant direction
         quats = quats * np.where(np.sum(quats * mean, axis=-1, keepdims=True) < 0, -1.0, 1.0)
         mean = quats.mean(axis=0)
         return FeatureSpec(skeleton, from_quat(mean), forward_local)
 
-    def _heading_relative_rotations(self, motion: Motion) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """Local rotations (T, J, 3) with the pelvis's made heading-relative; heading yaw (T,); pelvis positions (T, 3)."""
+    def _heading_relative_quats(self, motion: Motion) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Local rotations as quaternions (T, J, 4) with the pelvis's made heading-relative; heading yaw (T,);
+        pelvis positions (T, 3)."""
         pelvis = self.skeleton.pelvis
         world_rotations, world_positions = motion.world([pelvis])
         yaw = smooth(
             heading_yaw(world_rotations[:, pelvis], self.forward_local), PATH_SMOOTHING_S * motion.fps
         )
-        rotations = motion.rotations.copy()
+        quats = to_quat(motion.rotations)
         tilt = np.swapaxes(yaw_matrices(yaw), -1, -2) @ world_rotations[:, pelvis]  # (T, 3, 3)
-        rotations[:, pelvis] = from_matrix(tilt)
-        return rotations, yaw, world_positions[:, pelvis]
+        quats[:, pelvis] = matrix_to_quat(tilt)
+        return quats, yaw, world_positions[:, pelvis]
 
     def encode(self, motion: Motion) -> tuple[FloatArray, RootPath]:
         """Features (T, C) and the root path of a clip."""
-        rotations, yaw, pelvis_positions = self._heading_relative_rotations(motion)
+        quats, yaw, pelvis_positions = self._heading_relative_quats(motion)
         joints = self.pose_joints
-        relative = multiply(-self.reference_rotations[joints], rotations[:, joints])  # (T, J_pose, 3)
-        quats = continuous_quats(to_quat(relative), axis=0)
+        relative = quat_multiply(
+            to_quat(-self.reference_rotations[joints]), quats[:, joints]
+        )  # (T, J_pose, 4)
+        quats = continuous_quats(relative, axis=0)
         quats *= np.where(quats[:1, :, 3:] < 0, -1.0, 1.0)  # start on the identity's hemisphere
         path = smooth(pelvis_positions[:, [0, 2]], PATH_SMOOTHING_S * motion.fps)  # (T, 2) x, z
         offset = np.zeros_like(pelvis_positions)

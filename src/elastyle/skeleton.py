@@ -113,10 +113,15 @@ class Skeleton:
 
     def rest_positions(self) -> FloatArray:
         """World positions (J, 3) of the joints with every rotation zero."""
+        return self._rest_positions
+
+    @cached_property
+    def _rest_positions(self) -> FloatArray:
         positions = np.zeros((self.num_joints, 3))
         for joint in range(self.num_joints):
             parent = self.parents[joint]
             positions[joint] = self.offsets[joint] + (positions[parent] if parent >= 0 else 0.0)
+        positions.flags.writeable = False  # shared by every caller
         return positions
 
     def height(self) -> float:

@@ -153,19 +153,23 @@ class _StyleTrack:
 def _patch_sample(
     grid: FloatArray, patches: list[Patch], patch_frames: int
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """For each grid time (G,): library position, cross-fade weight and log rate of the covering patch."""
-    position = np.zeros_like(grid)
-    weight = np.zeros_like(grid)
-    log_rate = np.zeros_like(grid)
-    for patch in patches:
-        inside = (grid >= patch.content_start - 0.5) & (
-            grid < patch.content_start + patch.content_frames - 0.5
-        )
-        phase = (grid[inside] - patch.content_start + 0.5) / patch.content_frames  # (0, 1]
-        frame = phase * patch_frames - 0.5
-        position[inside] = patch.style_start + np.clip(frame, 0, patch_frames - 1)
-        weight[inside] = np.maximum(1 - np.abs(2 * phase - 1), 1e-3)
-        log_rate[inside] = np.log(patch_frames / patch.content_frames)
+    """For each grid time (G,): library position, cross-fade weight and log rate of the covering patch.
+
+    Patch i covers content times [start_i - 0.5, start_i + frames_i - 0.5); patches are in content order
+    and do not overlap. Grid times no patch covers get zeros.
+    """
+    if not patches:
+        return np.zeros_like(grid), np.zeros_like(grid), np.zeros_like(grid)
+    starts, frames, style_starts = np.array(
+        [(p.content_start, p.content_frames, p.style_start) for p in patches], dtype=np.float64
+    ).T  # (P,) each
+    which = np.clip(np.searchsorted(starts - 0.5, grid, side="right") - 1, 0, len(patches) - 1)  # (G,)
+    phase = (grid - starts[which] + 0.5) / frames[which]  # in [0, 1) inside the patch
+    inside = (grid >= starts[which] - 0.5) & (grid < starts[which] + frames[which] - 0.5)
+    frame = phase * patch_frames - 0.5
+    position = np.where(inside, style_starts[which] + np.clip(frame, 0, patch_frames - 1), 0.0)
+    weight = np.where(inside, np.maximum(1 - np.abs(2 * phase - 1), 1e-3), 0.0)
+    log_rate = np.where(inside, np.log(patch_frames / frames[which]), 0.0)
     return position, weight, log_rate
 
 
