@@ -70,6 +70,9 @@ def test_existing_output_is_not_overwritten_without_force(three_channel_bvh: Pat
         (lambda t: t.replace("0 20 0 0 0 0 0", "0 20 0 0 0 0 0 7", 1), "row has 22 values"),
         (lambda t: t.replace("1 20 0 90", "1 20 0 x90"), "not a number"),
         (lambda t: t.replace("1 20 0 90", "1 20 0 nan"), "NaN or infinite"),
+        (lambda t: t.replace("1 20 0 90", "1 20 0 90 0"), "row has 22 values"),
+        (lambda t: t.replace("1 20 0 90", "1 20 0\n90", 1), "row has 3 values"),
+        (lambda t: t.replace("1 20 0 90", "1 20 0 9,0"), "not a number"),
         (
             lambda t: t.replace(
                 "Xrotation Yrotation Zrotation\n    End", "Wrotation Yrotation Zrotation\n    End"
@@ -87,6 +90,13 @@ def test_bad_files_raise_one_line_bvh_error(mutate, message: str) -> None:  # ty
         parse_bvh(mutate(THREE_CHANNEL_BVH).encode(), "bad.bvh")
     assert "\n" not in str(raised.value)
     assert str(raised.value).startswith("bad.bvh")
+
+
+def test_numbers_python_reads_are_accepted() -> None:
+    """Frame values numpy's fast reader refuses but Python's float() reads (digit separators) still load."""
+    motion, _ = parse_bvh(THREE_CHANNEL_BVH.replace("1 20 0 90", "1 20 0 9_0").encode(), "separators.bvh")
+    reference, _ = parse_bvh(THREE_CHANNEL_BVH.encode(), "plain.bvh")
+    np.testing.assert_array_equal(motion.rotations, reference.rotations)
 
 
 def test_missing_file_and_directory(tmp_path: Path) -> None:

@@ -230,39 +230,48 @@ def _parse_motion(reader: _Lines, num_channels: int) -> tuple[FloatArray, float]
     if len(rows) != num_frames:
         _raise_row_problem(path, rows, first_row_line, num_frames, num_channels)
     try:
-        # numpy's C parser: several times faster than float() on split tokens; raises on any bad token
-        values = np.fromstring(" ".join(rows), sep=" ")
+        # numpy's C reader: faster than float() on split tokens; raises on a bad token or a row of another
+        # length, and it skips blank rows (caught by the shape check)
+        values = np.loadtxt(rows, dtype=np.float64, comments=None, ndmin=2)
     except ValueError:
-        _raise_value_problem(path, rows, first_row_line)
-        raise
-    if values.size != num_frames * num_channels or any(len(row.split()) != num_channels for row in rows):
+        values = _values_token_by_token(path, rows, first_row_line, num_channels)
+    if values.shape != (num_frames, num_channels):
         _raise_row_problem(path, rows, first_row_line, num_frames, num_channels)
-    values = values.reshape(num_frames, num_channels)
     if not np.all(np.isfinite(values)):
         row = int(np.flatnonzero(~np.all(np.isfinite(values), axis=1))[0])
         raise BvhError(path, "NaN or infinite value in frame data", first_row_line + row)
     return values, frame_time_s
 
 
+def _row_problem(row: str, num_channels: int) -> str | None:
+    count = len(row.split())
+    if count == num_channels:
+        return None
+    return "empty row" if count == 0 else f"row has {count} values, the hierarchy needs {num_channels}"
+
+
 def _raise_row_problem(
     path: str, rows: list[str], first_line: int, num_frames: int, num_channels: int
 ) -> None:
     for row_index, row in enumerate(rows):
-        count = len(row.split())
-        if count != num_channels:
-            problem = (
-                "empty row" if count == 0 else f"row has {count} values, the hierarchy needs {num_channels}"
-            )
+        problem = _row_problem(row, num_channels)
+        if problem:
             raise BvhError(path, problem, first_line + row_index)
     raise BvhError(
         path, f"'Frames: {num_frames}' but {len(rows)} rows of frame data (truncated?)", first_line
     )
 
 
-def _raise_value_problem(path: str, rows: list[str], first_line: int) -> None:
+def _values_token_by_token(path: str, rows: list[str], first_line: int, num_channels: int) -> FloatArray:
+    """Frame values (T, C) read with Python's float(), after numpy's reader refused them: the first bad
+    row or token gets its error, and spellings float() accepts but numpy does not (such as '1_000') load."""
+    values = []
     for row_index, row in enumerate(rows):
-        for token in row.split():
-            _parse_float(path, token, first_line + row_index)
+        problem = _row_problem(row, num_channels)
+        if problem:
+            raise BvhError(path, problem, first_line + row_index)
+        values.append([_parse_float(path, token, first_line + row_index) for token in row.split()])
+    return np.array(values, dtype=np.float64)
 
 
 def _motion_from_channels(
