@@ -274,13 +274,12 @@ def _values_token_by_token(path: str, rows: list[str], first_line: int, num_chan
     return np.array(values, dtype=np.float64)
 
 
-def _motion_from_channels(
-    path: str, skeleton: Skeleton, channels: list[tuple[str, ...]], values: FloatArray, fps: float
-) -> Motion:
-    num_frames = values.shape[0]
-    num_joints = skeleton.num_joints
-    translations = np.broadcast_to(skeleton.offsets, (num_frames, num_joints, 3)).copy()
-    rotations = np.zeros((num_frames, num_joints, 3))
+def _channel_columns(
+    channels: list[tuple[str, ...]] | tuple[tuple[str, ...], ...],
+) -> tuple[list[tuple[int, int, int]], dict[str, tuple[list[int], list[list[int]]]]]:
+    """Where each joint's channels sit in a frame row: position channels as (joint, axis, column), and the
+    rotation channels grouped by Euler order as {order: (joints, their 3 columns each)}."""
+    positions: list[tuple[int, int, int]] = []
     by_order: dict[str, tuple[list[int], list[list[int]]]] = {}
     column = 0
     for joint, joint_channels in enumerate(channels):
@@ -288,7 +287,7 @@ def _motion_from_channels(
         order = ""
         for channel in joint_channels:
             if channel in _POSITION_CHANNELS:
-                translations[:, joint, _POSITION_CHANNELS[channel]] = values[:, column]
+                positions.append((joint, _POSITION_CHANNELS[channel], column))
             else:
                 order += _ROTATION_CHANNELS[channel]
                 rotation_columns.append(column)
@@ -297,6 +296,19 @@ def _motion_from_channels(
             joints, columns = by_order.setdefault(order, ([], []))
             joints.append(joint)
             columns.append(rotation_columns)
+    return positions, by_order
+
+
+def _motion_from_channels(
+    path: str, skeleton: Skeleton, channels: list[tuple[str, ...]], values: FloatArray, fps: float
+) -> Motion:
+    num_frames = values.shape[0]
+    num_joints = skeleton.num_joints
+    translations = np.broadcast_to(skeleton.offsets, (num_frames, num_joints, 3)).copy()
+    rotations = np.zeros((num_frames, num_joints, 3))
+    positions, by_order = _channel_columns(channels)
+    for joint, axis, column in positions:
+        translations[:, joint, axis] = values[:, column]
     for order, (joints, columns) in by_order.items():
         angles_deg = values[:, np.array(columns)]  # (T, J_order, 3)
         rotations[:, joints] = euler_to_rotvec(order, angles_deg)
@@ -402,18 +414,11 @@ def _format_vector(vector: FloatArray) -> str:
 
 def _channel_values(motion: Motion, layout: BvhLayout) -> FloatArray:
     """Frame data (T, total channels) in the layout's channel order; angles continuous along time."""
-    columns: list[FloatArray] = []
-    for joint, joint_channels in enumerate(layout.channels):
-        order = "".join(_ROTATION_CHANNELS[c] for c in joint_channels if c in _ROTATION_CHANNELS)
-        angles_deg = np.zeros((motion.num_frames, 3))
-        if order:
-            angles_deg = rotvec_to_euler(order, motion.rotations[:, joint])
-            angles_deg = np.unwrap(angles_deg, period=360.0, axis=0)
-        rotation_index = 0
-        for channel in joint_channels:
-            if channel in _POSITION_CHANNELS:
-                columns.append(motion.translations[:, joint, _POSITION_CHANNELS[channel]])
-            else:
-                columns.append(angles_deg[:, rotation_index])
-                rotation_index += 1
-    return np.stack(columns, axis=1) if columns else np.zeros((motion.num_frames, 0))
+    values = np.zeros((motion.num_frames, sum(len(c) for c in layout.channels)))
+    positions, by_order = _channel_columns(layout.channels)
+    for joint, axis, column in positions:
+        values[:, column] = motion.translations[:, joint, axis]
+    for order, (joints, columns) in by_order.items():  # every joint of one Euler order at once
+        angles_deg = rotvec_to_euler(order, motion.rotations[:, joints])  # (T, J_order, 3)
+        values[:, np.array(columns)] = np.unwrap(angles_deg, period=360.0, axis=0)
+    return values
