@@ -38,7 +38,7 @@ def test_batched_float32_search_agrees_with_float64_loop() -> None:
     reference = windows.similarities(queries, block=1)
     for block in (2, 5, 7, 12):
         assert np.allclose(windows.similarities(queries, block=block), reference, atol=1e-5)
-    # small chunks of windows, block rows built per chunk instead of cached: the same again
+    # small chunks of windows, block columns built per chunk instead of cached: the same again
     windows.CHUNK_BYTES, windows.MIN_CHUNK_WINDOWS, windows.BLOCKED_BYTES = 1, 10, 0
     for block in (1, 5, 12):
         assert np.allclose(windows.similarities(queries, block=block), reference, atol=1e-5)

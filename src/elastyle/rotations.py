@@ -1,8 +1,9 @@
 """Rotation helpers over exponential maps (rotation vectors, radians), vectorised in numpy.
 
-Exp maps `(..., 3)` are the one rotation format outside `io/bvh`. Quaternions appear only inside this
-module and are scalar-last `(x, y, z, w)`, like scipy, which the tests use as the reference. Plain numpy
-on whole arrays is several times faster here than building scipy `Rotation` objects for every call.
+Exp maps `(..., 3)` are the rotation format clips carry. Quaternions, scalar-last `(x, y, z, w)` like
+scipy (the tests' reference), serve where a sign choice or a product is needed: feature encoding (kept
+continuous along time), BVH Euler angles and training. Plain numpy on whole arrays is several times
+faster here than building scipy `Rotation` objects for every call.
 """
 
 from __future__ import annotations

@@ -141,7 +141,7 @@ class StyleWindows:
                 (num_blocks * row * item, (row + block) * item, item),
                 writeable=False,
             )
-            dots = shifted.sum(axis=1) if num_blocks > 1 else shifted[:, 0].copy()
+            dots = shifted.sum(axis=1)  # (Q, last - first), a new array
             dots *= self.inverse_norms[first:last]
             np.copyto(dots, np.float32(-np.inf), where=self._invalid[first:last])
             yield first, last, dots
