@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from elastyle import BvhError, read_bvh, write_bvh
+from elastyle import BvhError, Motion, read_bvh, write_bvh
 from elastyle.io.bvh import bvh_text, parse_bvh
 from tests.conftest import THREE_CHANNEL_BVH
 
@@ -43,6 +43,21 @@ def test_write_keeps_layout_and_round_trips(three_channel_bvh: Path, tmp_path: P
     assert layout_again.channels == layout.channels
     assert "End Site" in out.read_text()
     np.testing.assert_allclose(again.positions(), motion.positions(), atol=1e-4)
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e9])  # 1e9: whole parts past the digit-by-digit writer's range
+def test_written_numbers_read_like_six_decimals(three_channel_bvh: Path, scale: float) -> None:
+    motion, layout = read_bvh(three_channel_bvh)
+    values = np.array([0.0, -1e-9, 1.5, -10.0, 99999.9999999, -123.4567891, 0.25e-6, 7e-7]) * scale
+    frames = np.resize(values, (motion.num_frames, 3))
+    translations = motion.translations.copy()
+    translations[:, 0] = frames  # the pelvis's position channels are written as they are
+    text = bvh_text(Motion(motion.skeleton, motion.rotations, translations, motion.fps), layout)
+    rows = text.split("Frame Time:")[1].splitlines()[1:]
+    assert len(rows) == motion.num_frames and all("  " not in row and row == row.strip() for row in rows)
+    written = [row.split()[:3] for row in rows]
+    expected = [[f"{v:.6f}".replace("-0.000000", "0.000000") for v in frame] for frame in frames]
+    assert written == expected
 
 
 def test_tabs_crlf_and_spaces_are_accepted() -> None:
