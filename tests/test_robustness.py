@@ -212,6 +212,17 @@ def test_failed_write_keeps_the_old_file(tmp_path: Path, monkeypatch: pytest.Mon
     assert [p.name for p in tmp_path.iterdir()] == ["out.bvh"]
 
 
+def test_written_file_has_the_users_usual_mode(tmp_path: Path) -> None:
+    motion, layout = parse_bvh(GOOD.encode(), "good.bvh")
+    umask = os.umask(0o027)
+    try:
+        write_bvh(tmp_path / "out.bvh", motion, layout)
+    finally:
+        os.umask(umask)
+    assert (tmp_path / "out.bvh").stat().st_mode & 0o777 == 0o640
+    assert [p.name for p in tmp_path.iterdir()] == ["out.bvh"]
+
+
 Mutation = Callable[[list[str]], list[str]]
 
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 from elastyle.errors import OutputError
@@ -33,22 +32,32 @@ def check_output_path(
 def write_bytes_atomic(path: str | os.PathLike[str], data: bytes, force: bool = False) -> None:
     """Write to a temporary file beside `path`, then rename it into place only once complete."""
     target = check_output_path(path, force=force)
-    handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    umask = os.umask(0)
-    os.umask(umask)
+    temporary, handle = _create_temporary(target)
     try:
-        os.chmod(temporary, 0o666 & ~umask)  # mkstemp makes 0600; give the file the user's usual mode
         with os.fdopen(handle, "wb") as stream:
             stream.write(data)
             stream.flush()
             os.fsync(stream.fileno())
         os.replace(temporary, target)
     except OSError as error:
-        Path(temporary).unlink(missing_ok=True)
+        temporary.unlink(missing_ok=True)
         raise OutputError(f"{target}: write failed: {error.strerror or error}") from None
     except BaseException:
-        Path(temporary).unlink(missing_ok=True)
+        temporary.unlink(missing_ok=True)
         raise
+
+
+def _create_temporary(target: Path) -> tuple[Path, int]:
+    """A new hidden file beside `target` (a name no other writer holds) and its open descriptor, with the
+    user's usual permissions (0666 less the umask)."""
+    while True:
+        temporary = target.with_name(f".{target.name}.{os.getpid()}.{os.urandom(4).hex()}.tmp")
+        try:
+            return temporary, os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        except FileExistsError:
+            continue
+        except OSError as error:
+            raise OutputError(f"{target}: write failed: {error.strerror or error}") from None
 
 
 def write_text_atomic(path: str | os.PathLike[str], text: str, force: bool = False) -> None:
