@@ -6,9 +6,8 @@ import argparse
 import json
 import logging
 import sys
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from elastyle.errors import ElastyleError, OutputError, UsageError
 from elastyle.io.dataset import ClipRef
@@ -174,8 +173,7 @@ def run_transfer(args: argparse.Namespace) -> int:
     return _transfer_batch(job, args.content, targets, args.jobs)
 
 
-@dataclass(frozen=True)
-class _Job:
+class _Job(NamedTuple):
     """Everything a content clip's transfer needs besides the clip: shared by the batch's workers."""
 
     style: Any

@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 
@@ -161,8 +162,7 @@ class FeatureSpec:
         return Motion(self.skeleton, rotations, translations, fps)
 
 
-@dataclass(frozen=True, eq=False)
-class RootPath:
+class RootPath(NamedTuple):
     """What a transfer keeps from the content, per frame.
 
     path: (T, 2) smoothed horizontal pelvis position (x, z), file units.

@@ -11,8 +11,8 @@ import io
 import math
 import os
 import warnings
-from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -27,8 +27,7 @@ _ROTATION_CHANNELS = {"Xrotation": "X", "Yrotation": "Y", "Zrotation": "Z"}
 _POSITION_CHANNELS = {"Xposition": 0, "Yposition": 1, "Zposition": 2}
 
 
-@dataclass(frozen=True)
-class BvhLayout:
+class BvhLayout(NamedTuple):
     """What a BVH file needs beyond the motion itself, so `write_bvh` reproduces its layout.
 
     channels: per joint (J,), the channel names in file order (3 or 6 of them, or none).

@@ -11,9 +11,9 @@ import os
 import re
 import zipfile
 from collections.abc import Iterable
-from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
+from typing import NamedTuple
 
 from elastyle.errors import BvhError, DatasetError
 from elastyle.io.bvh import BvhLayout, parse_bvh, read_bvh
@@ -27,8 +27,7 @@ PUBLIC_DATASET_HINT = (
 )
 
 
-@dataclass(frozen=True)
-class ClipRef:
+class ClipRef(NamedTuple):
     """One BVH clip: a file on disk, or a member of a zip archive."""
 
     name: str  # what messages show: a path, or "archive.zip/member"

@@ -7,7 +7,7 @@ exactly as `elastyle.train` does in torch.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
@@ -16,8 +16,7 @@ from elastyle.model.config import ModelConfig
 from elastyle.types import AnyFloatArray, Float32Array
 
 
-@dataclass(frozen=True, eq=False)
-class AutoencoderWeights:
+class AutoencoderWeights(NamedTuple):
     """Weights in torch's layout.
 
     conv1: (H, C, K), bias1: (H,); conv2: (Z, H, 1), bias2: (Z,).

@@ -15,7 +15,7 @@ The half-shifted second sequence spans from the centre of one elastic patch to t
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -23,8 +23,7 @@ import numpy.typing as npt
 from elastyle.types import BoolArray, Float32Array, FloatArray, IntArray
 
 
-@dataclass(frozen=True)
-class Patch:
+class Patch(NamedTuple):
     """One matched patch: content frames [content_start, content_start + content_frames) are replaced by
     the style window starting at library frame `style_start` (L frames). similarity: cosine, [-1, 1]."""
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -10,8 +10,7 @@ from elastyle.errors import UsageError as ElastyleError
 from elastyle.types import FloatArray
 
 
-@dataclass(frozen=True)
-class Schedule:
+class Schedule(NamedTuple):
     """Keyframes (times_s (K,), values (K,)); held constant before the first and after the last."""
 
     times_s: tuple[float, ...]

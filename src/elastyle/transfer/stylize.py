@@ -12,7 +12,7 @@ import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -111,8 +111,7 @@ class StyleLibrary:
         return int(np.max(ends - self.clip_starts))
 
 
-@dataclass(frozen=True, eq=False)
-class TransferResult:
+class TransferResult(NamedTuple):
     motion: Motion
     explain: dict[str, Any]
 
@@ -142,8 +141,7 @@ def prepare_style(
     )
 
 
-@dataclass(frozen=True, eq=False)
-class _StyleTrack:
+class _StyleTrack(NamedTuple):
     latents: FloatArray  # (G, Z) coloured latents on the content-time grid
     log_rate: FloatArray  # (G,)
     patches: list[Patch]

@@ -6,15 +6,14 @@ Latents are (T, Z). Statistics are pooled over every frame of every clip given.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from elastyle.types import FloatArray
 
 
-@dataclass(frozen=True, eq=False)
-class LatentStats:
+class LatentStats(NamedTuple):
     """mean (Z,), covariance (Z, Z), and its whitening / colouring matrices (Z, Z)."""
 
     mean: FloatArray
