@@ -22,6 +22,16 @@ def test_matrices_match_scipy() -> None:
     np.testing.assert_allclose(to_matrix(back), to_matrix(rotvecs), atol=1e-9)
 
 
+def test_matrix_to_exp_map_is_exact_at_every_angle() -> None:
+    # angles from 0 to just below pi, dense around 161 degrees where the trace formula hands over
+    angles = np.concatenate([np.linspace(0, np.pi - 1e-6, 2000), np.radians(np.linspace(160, 162, 500))])
+    axes = Rotation.random(len(angles), random_state=2).as_rotvec()
+    rotvecs = axes / np.linalg.norm(axes, axis=1, keepdims=True) * angles[:, None]
+    np.testing.assert_allclose(from_matrix(to_matrix(rotvecs)), rotvecs, atol=1e-9)
+    matrices = Rotation.from_rotvec(rotvecs).as_matrix()
+    np.testing.assert_allclose(from_matrix(matrices), Rotation.from_matrix(matrices).as_rotvec(), atol=1e-12)
+
+
 def test_quaternions_match_scipy_up_to_sign() -> None:
     rotvecs = _random_rotvecs(500)
     ours = to_quat(rotvecs)

@@ -76,8 +76,29 @@ def quat_to_matrix(quats: FloatArray) -> FloatArray:
     ).reshape(*quats.shape[:-1], 3, 3)  # fmt: skip
 
 
+TRACE_FROM_SHEPPERD = -0.9  # 1 + trace = 4 w^2: below 0.1 (rotations past about 161 degrees) use Shepperd
+
+
 def matrix_to_quat(matrices: FloatArray) -> FloatArray:
-    """Rotation matrices (..., 3, 3) -> unit quaternions (..., 4) with w >= 0 (Shepperd's method)."""
+    """Rotation matrices (..., 3, 3) -> unit quaternions (..., 4) with w >= 0.
+
+    From the trace where the rotation is below about 160 degrees (accurate there, and most rotations are),
+    by Shepperd's method for the rest.
+    """
+    m = matrices
+    trace = m[..., 0, 0] + m[..., 1, 1] + m[..., 2, 2]
+    quats = np.stack(
+        [m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1], 1 + trace],
+        axis=-1,
+    )  # (..., 4): 2 (1 + trace)^(1/2) times the quaternion
+    near_half_turn = trace < TRACE_FROM_SHEPPERD
+    if np.any(near_half_turn):
+        quats[near_half_turn] = _shepperd(m[near_half_turn])
+    return quats / lengths(quats, keepdims=True)
+
+
+def _shepperd(matrices: FloatArray) -> FloatArray:
+    """Rotation matrices (N, 3, 3) -> unit quaternions (N, 4) with w >= 0, accurate for any angle."""
     m = matrices
     trace = m[..., 0, 0] + m[..., 1, 1] + m[..., 2, 2]
     # four candidate quaternions, each accurate when its own component is the largest
