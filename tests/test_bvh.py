@@ -48,7 +48,7 @@ def test_write_keeps_layout_and_round_trips(three_channel_bvh: Path, tmp_path: P
 @pytest.mark.parametrize("scale", [1.0, 1e9])  # 1e9: whole parts past the digit-by-digit writer's range
 def test_written_numbers_read_like_six_decimals(three_channel_bvh: Path, scale: float) -> None:
     motion, layout = read_bvh(three_channel_bvh)
-    values = np.array([0.0, -1e-9, 1.5, -10.0, 99999.9999999, -123.4567891, 0.25e-6, 7e-7]) * scale
+    values = np.array([0.0, -1e-9, 1.5, -0.5, -10.0, 99999.9999999, -123.4567891, 0.25e-6, 7e-7]) * scale
     frames = np.resize(values, (motion.num_frames, 3))
     translations = motion.translations.copy()
     translations[:, 0] = frames  # the pelvis's position channels are written as they are
