@@ -76,13 +76,13 @@ def quat_to_matrix(quats: FloatArray) -> FloatArray:
     ).reshape(*quats.shape[:-1], 3, 3)  # fmt: skip
 
 
-TRACE_FROM_SHEPPERD = -0.9  # 1 + trace = 4 w^2: below 0.1 (rotations past about 161 degrees) use Shepperd
+TRACE_FROM_SHEPPERD = -0.9  # 1 + trace = 4 w^2: below 0.1 (rotations past about 162 degrees) use Shepperd
 
 
 def matrix_to_quat(matrices: FloatArray) -> FloatArray:
     """Rotation matrices (..., 3, 3) -> unit quaternions (..., 4) with w >= 0.
 
-    From the trace where the rotation is below about 160 degrees (accurate there, and most rotations are),
+    From the trace where the rotation is below about 162 degrees (accurate there, and most rotations are),
     by Shepperd's method for the rest.
     """
     m = matrices

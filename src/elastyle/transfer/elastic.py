@@ -43,9 +43,8 @@ def sample_windows(
     starts = np.asarray(starts, dtype=np.float64)[:, None]
     lengths = np.asarray(lengths, dtype=np.float64)[:, None]
     positions = starts + (np.arange(count) + 0.5) * (lengths / count) - 0.5
-    positions = np.minimum(
-        np.maximum(positions, 0), latents.shape[0] - 1
-    )  # np.clip costs more on small arrays
+    # held at the clip's ends (np.clip costs more on arrays this small)
+    positions = np.minimum(np.maximum(positions, 0), latents.shape[0] - 1)
     lower = np.floor(positions).astype(np.int64)  # (Q, count)
     upper = np.minimum(lower + 1, latents.shape[0] - 1)
     weight = (positions - lower)[..., None]
