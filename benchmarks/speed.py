@@ -30,9 +30,9 @@ import numpy as np  # noqa: E402
 from elastyle.io.bvh import bvh_text, parse_bvh  # noqa: E402
 from elastyle.io.dataset import default_data_path, find_clips  # noqa: E402
 from elastyle.model.file import load_model  # noqa: E402
-from elastyle.motion import Motion  # noqa: E402
-from elastyle.transfer import elastic  # noqa: E402
-from elastyle.transfer.stylize import TransferConfig, prepare_style, transfer  # noqa: E402
+from elastyle.core.motion import Motion  # noqa: E402
+from elastyle.steps import search as elastic  # noqa: E402
+from elastyle.steps.stylize import TransferConfig, prepare_style, transfer  # noqa: E402
 
 # (stretch step, label, placement): the sequential search has one library pass per patch (each patch
 # starts where the previous one's matched stretch ended); the fixed placement searches all in one batch

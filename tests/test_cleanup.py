@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from elastyle.body import centimetres_per_unit, find_limbs
-from elastyle.cleanup import adjust_root_speed, clean_feet, detect_contacts, ground_level
+from elastyle.core.body import centimetres_per_unit, find_limbs
+from elastyle.steps.cleanup import adjust_root_speed, clean_feet, detect_contacts, ground_level
 from elastyle.eval.metrics import foot_skating_cm_s, jerk
 from elastyle.io.bvh import parse_bvh
 from elastyle.io.dataset import ClipRef
-from elastyle.motion import Motion
-from elastyle.skeleton import Skeleton
+from elastyle.core.motion import Motion
+from elastyle.core.skeleton import Skeleton
 from elastyle.types import BoolArray, FloatArray
 from tests.conftest import THREE_CHANNEL_BVH, clip_named
 
@@ -270,7 +270,7 @@ def test_two_bone_legs_are_left_alone() -> None:
 
 
 def test_contact_hysteresis_matches_its_frame_by_frame_definition() -> None:
-    from elastyle.cleanup import _hysteresis
+    from elastyle.steps.cleanup import _hysteresis
 
     rng = np.random.default_rng(0)
     for _ in range(50):

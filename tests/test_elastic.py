@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from elastyle.transfer.elastic import StyleWindows, sample_windows, search_sequential
+from elastyle.steps.search import StyleWindows, sample_windows, search_sequential
 
 
 def _brute_force_best(library: np.ndarray, valid_starts: list[int], query: np.ndarray) -> tuple[int, float]:

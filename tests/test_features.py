@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from elastyle import SkeletonMismatchError, mirror, read_bvh
-from elastyle.features import FeatureSpec
-from elastyle.rotations import continuous_log, from_quat, to_quat
+from elastyle.model.features import FeatureSpec
+from elastyle.core.rotations import continuous_log, from_quat, to_quat
 
 
 def test_quaternion_round_trip_and_identity_is_safe() -> None:
@@ -81,7 +81,7 @@ def test_mirror_without_pairs_is_a_clear_error(three_channel_bvh: Path, tmp_path
     "name_pairs", [("Foot_L", "Foot_R"), ("l_hip", "r_hip"), ("arm.L", "arm.R"), ("LeftArm", "RightArm")]
 )
 def test_side_markers_are_recognised(name_pairs: tuple[str, str]) -> None:
-    from elastyle.skeleton import Skeleton
+    from elastyle.core.skeleton import Skeleton
 
     names = ("root", *name_pairs)
     skeleton = Skeleton(names, np.array([-1, 0, 0]), np.zeros((3, 3)))
@@ -100,7 +100,7 @@ def test_resample_keeps_duration_and_poses(walk_clip) -> None:  # type: ignore[n
 def test_smoothing_matches_scipy() -> None:
     from scipy.ndimage import gaussian_filter1d
 
-    from elastyle.body import smooth
+    from elastyle.core.body import smooth
 
     values = np.random.default_rng(0).normal(size=(50, 4, 3))
     for sigma in (0.5, 1.0, 7.5):

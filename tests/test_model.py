@@ -16,11 +16,11 @@ torch = pytest.importorskip("torch")
 @pytest.mark.parametrize("tied", [True, False])
 def test_numpy_forward_matches_torch(tied: bool) -> None:
     from elastyle.model.config import ModelConfig
-    from elastyle.train import _torch_autoencoder
+    from elastyle.training.network import TorchAutoencoder
 
     torch.manual_seed(0)
     config = ModelConfig(hidden_channels=64, latent_channels=16, kernel_frames=15, tied=tied)
-    network = _torch_autoencoder(config, 21)
+    network = TorchAutoencoder(config, 21)
     x = torch.randn(1, 21, 90)
     with torch.no_grad():
         latents_torch = network.encode(x)[0].T.numpy()
@@ -36,7 +36,8 @@ def test_numpy_forward_matches_torch(tied: bool) -> None:
 @pytest.fixture(scope="module")
 def trained(tmp_path_factory: pytest.TempPathFactory, data_path: Path):  # type: ignore[no-untyped-def]
     """A short real training on a small subset of dataset walks (a few hundred steps)."""
-    from elastyle.train import TrainConfig, train
+    from elastyle.training.config import TrainConfig
+    from elastyle.training.loop import train
 
     out = tmp_path_factory.mktemp("model") / "walks.npz"
     data = (
@@ -64,7 +65,8 @@ def test_short_training_lowers_loss_and_round_trips(trained) -> None:  # type: i
 
 @pytest.mark.slow
 def test_training_resumes_from_checkpoint(trained, tmp_path: Path, data_path: Path) -> None:  # type: ignore[no-untyped-def]
-    from elastyle.train import TrainConfig, train
+    from elastyle.training.config import TrainConfig
+    from elastyle.training.loop import train
 
     path, _ = trained
     checkpoint = Path(str(path) + ".ckpt")
@@ -133,8 +135,9 @@ def test_model_with_other_skeleton_lists_the_joints(three_channel_bvh: Path) -> 
 def test_training_works_on_another_skeleton(tmp_path: Path, three_channel_bvh: Path) -> None:
     """A 3-channel skeleton of another naming scheme: train a few steps, then transfer with the model."""
     from elastyle import write_bvh
-    from elastyle.train import TrainConfig, train
-    from elastyle.transfer.stylize import transfer
+    from elastyle.training.config import TrainConfig
+    from elastyle.training.loop import train
+    from elastyle.steps.stylize import transfer
 
     motion, layout = read_bvh(three_channel_bvh)
     swing = np.sin(np.arange(90) / 6.0)[:, None]  # (T, 1) a leg swing at about 0.8 Hz

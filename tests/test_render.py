@@ -11,8 +11,8 @@ import pytest
 from elastyle.errors import ElastyleError, OutputError
 from elastyle.io.bvh import read_bvh
 from elastyle.io.dataset import ClipRef
-from elastyle.motion import Motion
-from elastyle.render import (
+from elastyle.core.motion import Motion
+from elastyle.viewer.render import (
     PANEL_PX,
     bones,
     joint_sides,
@@ -20,7 +20,7 @@ from elastyle.render import (
     render_clips,
     sample_positions,
 )
-from elastyle.render import (
+from elastyle.viewer.render import (
     _gif_durations_ms as gif_durations_ms,
 )
 from tests.conftest import clip_named
@@ -141,7 +141,7 @@ def test_real_clips_render_to_mp4(short_clips: list[tuple[Motion, str]], tmp_pat
 def test_render_command_writes_once(three_channel_bvh: Path, tmp_path: Path) -> None:
     import argparse
 
-    from elastyle.cli_view import add_view_commands
+    from elastyle.cli.view import add_view_commands
 
     parser = argparse.ArgumentParser(prog="elastyle")
     add_view_commands(parser.add_subparsers(dest="command", required=True))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from elastyle.rotations import from_matrix, multiply, slerp_resample, to_matrix, to_quat
+from elastyle.core.rotations import from_matrix, multiply, slerp_resample, to_matrix, to_quat
 
 
 def _random_rotvecs(count: int) -> np.ndarray:

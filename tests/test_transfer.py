@@ -10,7 +10,7 @@ from elastyle.eval.metrics import cadence_steps_s, timing_error
 from elastyle.eval.reconstruction import reconstruct
 from elastyle.io.dataset import ClipRef
 from elastyle.model.file import load_model
-from elastyle.transfer.stylize import TransferConfig, prepare_style, transfer
+from elastyle.steps.stylize import TransferConfig, prepare_style, transfer
 from tests.conftest import clip_named
 
 
@@ -160,7 +160,7 @@ def test_content_timing_keeps_the_content_clock(model, content: Motion, style_cl
 
 @pytest.mark.parametrize("timing", ["style", "content"])
 def test_cleanup_plants_the_feet(model, content: Motion, style_clip: Motion, timing: str) -> None:  # type: ignore[no-untyped-def]
-    from elastyle.cleanup import ground_level
+    from elastyle.steps.cleanup import ground_level
     from elastyle.eval.metrics import foot_skating_cm_s
     from elastyle.eval.report import bone_length_error_cm
 

@@ -29,7 +29,7 @@ STYLE_CLIP = "dataset-2_walk_exhausted_005"
 # The `view` command as `elastyle view` runs it, without depending on cli.py registering it.
 VIEW_HARNESS = """
 import argparse, sys
-from elastyle.cli_view import add_view_commands
+from elastyle.cli.view import add_view_commands
 from elastyle.errors import ElastyleError
 parser = argparse.ArgumentParser(prog="elastyle")
 add_view_commands(parser.add_subparsers(dest="command", required=True))

@@ -17,9 +17,9 @@ from elastyle.errors import (
 )
 from elastyle.io.bvh import BvhLayout, read_bvh, write_bvh
 from elastyle.io.dataset import find_clips
-from elastyle.mirror import mirror
-from elastyle.motion import Motion
-from elastyle.skeleton import Skeleton, forward_kinematics
+from elastyle.core.mirror import mirror
+from elastyle.core.motion import Motion
+from elastyle.core.skeleton import Skeleton, forward_kinematics
 
 __all__ = [
     "BvhError",

@@ -16,8 +16,8 @@ from elastyle.eval.metrics import cadence_steps_s
 from elastyle.eval.report import transfer_figures
 from elastyle.io.dataset import ClipRef, dataset_label, find_clips
 from elastyle.model.file import StyleModel
-from elastyle.motion import Motion
-from elastyle.transfer.stylize import TransferConfig, prepare_style, transfer
+from elastyle.core.motion import Motion
+from elastyle.steps.stylize import TransferConfig, prepare_style, transfer
 
 MIN_CADENCE_GAP = 0.15
 

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from elastyle.eval.metrics import arm_swing_hz, cadence_steps_s
-from elastyle.features import FeatureSpec
-from elastyle.motion import Motion
+from elastyle.model.features import FeatureSpec
+from elastyle.core.motion import Motion
 from elastyle.types import FloatArray
 
 

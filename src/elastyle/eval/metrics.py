@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from elastyle.body import centimetres_per_unit, find_limbs
-from elastyle.motion import Motion
+from elastyle.core.body import centimetres_per_unit, find_limbs
+from elastyle.core.motion import Motion
 from elastyle.types import BoolArray, FloatArray
 
 
 def foot_contacts(motion: Motion, positions: FloatArray | None = None) -> BoolArray:
     """(T, F) True where a foot is planted: low and slow, with hysteresis (`cleanup.detect_contacts`)."""
-    from elastyle.cleanup import detect_contacts
+    from elastyle.steps.cleanup import detect_contacts
 
     del positions
     return detect_contacts(motion)
@@ -51,7 +51,7 @@ def _dominant_frequency_hz(
 
 def _lateral_difference(motion: Motion, positions: FloatArray, left: int, right: int) -> FloatArray:
     """Signed distance (T,) of joint `left` ahead of joint `right` along the body's travel direction."""
-    from elastyle.body import heading_yaw, pelvis_forward_local
+    from elastyle.core.body import heading_yaw, pelvis_forward_local
 
     world_rotations, _ = motion.world()
     yaw = heading_yaw(world_rotations[:, motion.skeleton.pelvis], pelvis_forward_local(motion.skeleton))

@@ -6,7 +6,7 @@ import numpy as np
 
 from elastyle.eval.metrics import reconstruction_errors
 from elastyle.model.file import StyleModel
-from elastyle.motion import Motion
+from elastyle.core.motion import Motion
 
 
 def reconstruct(model: StyleModel, motion: Motion, smooth_s: float = 0.0) -> Motion:

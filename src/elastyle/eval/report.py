@@ -12,7 +12,7 @@ from elastyle.eval.metrics import (
     jerk,
     timing_error,
 )
-from elastyle.motion import Motion
+from elastyle.core.motion import Motion
 
 
 def bone_length_error_cm(motion: Motion, reference: Motion) -> float:

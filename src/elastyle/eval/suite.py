@@ -18,7 +18,7 @@ from elastyle.eval.classify import RidgeClassifier, describe
 from elastyle.eval.report import transfer_figures
 from elastyle.io.dataset import dataset_label, find_clips
 from elastyle.model.file import StyleModel
-from elastyle.transfer.stylize import TransferConfig, prepare_style, transfer
+from elastyle.steps.stylize import TransferConfig, prepare_style, transfer
 
 log = logging.getLogger(__name__)
 

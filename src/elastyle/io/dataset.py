@@ -9,6 +9,7 @@ import fnmatch
 import glob
 import os
 import re
+import zlib
 import zipfile
 from collections.abc import Iterable
 from functools import lru_cache
@@ -17,7 +18,7 @@ from typing import NamedTuple
 
 from elastyle.errors import BvhError, DatasetError
 from elastyle.io.bvh import BvhLayout, parse_bvh, read_bvh
-from elastyle.motion import Motion
+from elastyle.core.motion import Motion
 
 DATA_ENVIRONMENT_VARIABLE = "ELASTYLE_DATA"
 PUBLIC_DATASET_HINT = (
@@ -138,3 +139,15 @@ def dataset_label(clip: ClipRef) -> tuple[str, str, int] | None:
     if match is None:
         return None
     return match["content"], match["style"], int(match["take"])
+
+
+HOLDOUT_EVERY = 5  # dataset takes numbered % 5 == 0 are held out: never trained on, used for every benchmark
+
+
+def is_held_out(clip: ClipRef, every: int = HOLDOUT_EVERY) -> bool:
+    """The one train / held-out split, by whole files: dataset takes numbered % every == 0; files of other
+    names by a stable hash of the file name."""
+    label = dataset_label(clip)
+    if label is not None:
+        return label[2] % every == 0
+    return zlib.crc32(Path(clip.name).name.encode()) % every == 0

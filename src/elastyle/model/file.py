@@ -16,14 +16,14 @@ from typing import Any
 
 import numpy as np
 
-from elastyle.body import smooth
+from elastyle.core.body import smooth
 from elastyle.errors import ModelError
-from elastyle.features import FeatureSpec, RootPath
+from elastyle.model.features import FeatureSpec, RootPath
 from elastyle.io.files import write_bytes_atomic
 from elastyle.model.autoencoder import Autoencoder, AutoencoderWeights
 from elastyle.model.config import ModelConfig
-from elastyle.motion import Motion
-from elastyle.skeleton import Skeleton
+from elastyle.core.motion import Motion
+from elastyle.core.skeleton import Skeleton
 from elastyle.types import FloatArray
 
 FORMAT_VERSION = 1

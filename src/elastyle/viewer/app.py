@@ -20,8 +20,8 @@ from urllib.parse import urlsplit
 import numpy as np
 
 from elastyle.errors import ElastyleError
-from elastyle.motion import Motion
-from elastyle.render import bones, grid_spacing, joint_sides
+from elastyle.core.motion import Motion
+from elastyle.viewer.render import bones, grid_spacing, joint_sides
 
 log = logging.getLogger("elastyle")
 
@@ -68,8 +68,8 @@ def build_payload(
 
 def _contacts(motion: Motion) -> dict[str, Any]:
     """Toe joints (F,) and their planted frames (T * F,) as 0/1, from `cleanup.detect_contacts`; none if no legs."""
-    from elastyle.body import find_limbs
-    from elastyle.cleanup import detect_contacts
+    from elastyle.core.body import find_limbs
+    from elastyle.steps.cleanup import detect_contacts
 
     toes = find_limbs(motion.skeleton).toes
     if len(toes) == 0:

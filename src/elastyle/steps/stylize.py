@@ -16,14 +16,14 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from elastyle.cleanup import adjust_root_speed, clean_feet, detect_contacts
+from elastyle.steps.cleanup import adjust_root_speed, clean_feet, detect_contacts
 from elastyle.errors import ClipTooShortError, ElastyleError, SkeletonMismatchError
-from elastyle.mirror import mirror
+from elastyle.core.mirror import mirror
 from elastyle.model.file import StyleModel, load_model
-from elastyle.motion import Motion
-from elastyle.transfer.elastic import Patch, StyleWindows, search_fixed, search_sequential
-from elastyle.transfer.schedule import Schedule
-from elastyle.transfer.whiten import LatentStats, adain
+from elastyle.core.motion import Motion
+from elastyle.steps.search import Patch, StyleWindows, search_fixed, search_sequential
+from elastyle.steps.schedule import Schedule
+from elastyle.steps.whiten import LatentStats, adain
 from elastyle.types import FloatArray
 
 log = logging.getLogger(__name__)

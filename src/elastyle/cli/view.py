@@ -55,7 +55,7 @@ def _read_clips(specs: list[str]) -> tuple[list[Any], list[str]]:
 
 def run_render(args: argparse.Namespace) -> int:
     from elastyle.io.files import check_output_path
-    from elastyle.render import render_clips
+    from elastyle.viewer.render import render_clips
 
     check_output_path(args.output, force=args.force, inputs=tuple(args.clips))
     if args.fps is not None and not args.fps > 0:

@@ -18,9 +18,9 @@ import numpy as np
 from elastyle.io.dataset import ClipRef
 from elastyle.io.files import write_bytes_atomic
 from elastyle.model.file import FORMAT_VERSION, StyleModel
-from elastyle.motion import Motion
-from elastyle.transfer.stylize import StyleLibrary, prepare_style
-from elastyle.transfer.whiten import LatentStats
+from elastyle.core.motion import Motion
+from elastyle.steps.stylize import StyleLibrary, prepare_style
+from elastyle.steps.whiten import LatentStats
 
 log = logging.getLogger(__name__)
 

@@ -11,7 +11,7 @@ from typing import Any, NamedTuple
 
 from elastyle.errors import ElastyleError, OutputError, UsageError
 from elastyle.io.dataset import ClipRef
-from elastyle.motion import Motion
+from elastyle.core.motion import Motion
 
 log = logging.getLogger("elastyle")
 
@@ -111,9 +111,9 @@ def run_transfer(args: argparse.Namespace) -> int:
     from elastyle.io.dataset import find_clips
     from elastyle.io.files import check_output_path
     from elastyle.model.file import load_model
-    from elastyle.transfer.cache import load_library
-    from elastyle.transfer.schedule import Schedule
-    from elastyle.transfer.stylize import TransferConfig
+    from elastyle.steps.cache import load_library
+    from elastyle.steps.schedule import Schedule
+    from elastyle.steps.stylize import TransferConfig
 
     if args.then_style and args.blend_style:
         raise _usage("give --then-style or --blend-style, not both")
@@ -190,7 +190,7 @@ def _transfer_one(job: _Job, content_spec: str, target: Path) -> None:
     from elastyle.io.bvh import write_bvh
     from elastyle.io.dataset import read_clip
     from elastyle.io.files import write_text_atomic
-    from elastyle.transfer.stylize import transfer
+    from elastyle.steps.stylize import transfer
 
     motion, layout = read_clip(content_spec)
     result = transfer(

@@ -7,8 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from elastyle.rotations import slerp_resample
-from elastyle.skeleton import Skeleton, forward_kinematics
+from elastyle.core.rotations import slerp_resample
+from elastyle.core.skeleton import Skeleton, forward_kinematics
 from elastyle.types import FloatArray, IntArray
 
 

@@ -84,7 +84,7 @@ def run_demo(args: argparse.Namespace) -> int:
     from elastyle.io.dataset import PUBLIC_DATASET_HINT, default_data_path, find_clips
     from elastyle.io.files import write_text_atomic
     from elastyle.model.file import load_model
-    from elastyle.transfer.stylize import TransferConfig, prepare_style, transfer
+    from elastyle.steps.stylize import TransferConfig, prepare_style, transfer
 
     data = args.data or default_data_path()
     if data is None or not Path(data).exists():
@@ -128,7 +128,7 @@ def run_demo(args: argparse.Namespace) -> int:
                 labels.append(f"{style_name} rigid")
     if not args.no_render:
         try:
-            from elastyle.render import render_clips
+            from elastyle.viewer.render import render_clips
 
             render_clips(rendered, labels, folder / "exhausted.gif", force=args.force, progress=False)
             print(f"  side by side: {folder / 'exhausted.gif'}")

@@ -40,7 +40,7 @@ def _command_convert(args: argparse.Namespace) -> int:
     from elastyle.io.bvh import write_bvh
     from elastyle.io.dataset import read_clip
     from elastyle.io.files import check_output_path
-    from elastyle.mirror import mirror
+    from elastyle.core.mirror import mirror
 
     check_output_path(args.output, force=args.force, inputs=(args.input,))
     motion, layout = read_clip(args.input)
@@ -65,7 +65,8 @@ def _command_train(args: argparse.Namespace) -> int:
         import torch
     except ImportError:
         raise ElastyleError("training needs torch: pip install 'elastyle[train]'") from None
-    from elastyle.train import TrainConfig, train
+    from elastyle.training.config import TrainConfig
+    from elastyle.training.loop import train
 
     if args.threads:
         torch.set_num_threads(args.threads)
@@ -87,10 +88,15 @@ def _command_train(args: argparse.Namespace) -> int:
         steps=args.steps,
         seed=args.seed,
         mirror_augment=not args.no_mirror,
+        reverse_augment=args.reverse_augment,
+        speed_augment=args.speed_augment,
         fps=args.fps,
         position_loss=args.position_loss,
     )
-    train(args.data, args.output, config, resume=args.resume, force=args.force, progress=not args.no_progress)
+    train(
+        args.data, args.output, config, resume=args.resume, force=args.force, progress=not args.no_progress,
+        exclude=args.exclude or (),
+    )  # fmt: skip
     return 0
 
 
@@ -131,6 +137,16 @@ def build_parser() -> argparse.ArgumentParser:
     trainer.add_argument("--kernel", type=int, default=15)
     trainer.add_argument("--untied", action="store_true", help="decoder with weights of its own")
     trainer.add_argument("--no-mirror", action="store_true", help="no mirrored clips as augmentation")
+    trainer.add_argument(
+        "--reverse-augment", type=float, default=0.0, help="share of training windows played backwards"
+    )
+    trainer.add_argument(
+        "--speed-augment", type=float, default=0.0,
+        help="share of batches played at a speed drawn from 0.5x to 2x",
+    )  # fmt: skip
+    trainer.add_argument(
+        "--exclude", action="append", help="leave out clips whose name matches this glob (repeatable)"
+    )
     trainer.add_argument("--fps", type=float, help="resample clips to this rate (default: the first clip's)")
     trainer.add_argument(
         "--position-loss",
@@ -143,15 +159,15 @@ def build_parser() -> argparse.ArgumentParser:
     trainer.add_argument("--force", action="store_true", help="overwrite an existing model file")
     trainer.set_defaults(run=_command_train)
 
-    from elastyle.cli_transfer import add_transfer_command
+    from elastyle.cli.transfer import add_transfer_command
 
     add_transfer_command(commands)
 
-    from elastyle.cli_view import add_view_commands
+    from elastyle.cli.view import add_view_commands
 
     add_view_commands(commands)
 
-    from elastyle.cli_eval import add_eval_commands
+    from elastyle.cli.eval import add_eval_commands
 
     add_eval_commands(commands)
     return parser

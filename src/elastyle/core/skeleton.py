@@ -10,7 +10,7 @@ from functools import cached_property
 import numpy as np
 
 from elastyle.errors import SkeletonMismatchError
-from elastyle.rotations import to_matrix
+from elastyle.core.rotations import to_matrix
 from elastyle.types import FloatArray, IntArray
 
 # Left/right markers in joint names, matched case-insensitively; group 1 is the side word.

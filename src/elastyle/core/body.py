@@ -13,7 +13,7 @@ from functools import cached_property
 
 import numpy as np
 
-from elastyle.skeleton import Skeleton
+from elastyle.core.skeleton import Skeleton
 from elastyle.types import FloatArray, IntArray
 
 

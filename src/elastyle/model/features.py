@@ -19,9 +19,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from elastyle.body import heading_yaw, pelvis_forward_local, smooth, yaw_matrices
-from elastyle.motion import Motion
-from elastyle.rotations import (
+from elastyle.core.body import heading_yaw, pelvis_forward_local, smooth, yaw_matrices
+from elastyle.core.motion import Motion
+from elastyle.core.rotations import (
     continuous_quats,
     from_matrix,
     from_quat,
@@ -31,7 +31,7 @@ from elastyle.rotations import (
     to_matrix,
     to_quat,
 )
-from elastyle.skeleton import Skeleton
+from elastyle.core.skeleton import Skeleton
 from elastyle.types import FloatArray, IntArray
 
 PATH_SMOOTHING_S = 0.25  # Gaussian sigma separating the path (kept) from the sway (transferred)

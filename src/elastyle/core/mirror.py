@@ -13,10 +13,10 @@ import itertools
 
 import numpy as np
 
-from elastyle.body import heading_yaw, pelvis_forward_local, yaw_matrices
-from elastyle.motion import Motion
-from elastyle.rotations import from_matrix
-from elastyle.skeleton import Skeleton, check_mirrorable
+from elastyle.core.body import heading_yaw, pelvis_forward_local, yaw_matrices
+from elastyle.core.motion import Motion
+from elastyle.core.rotations import from_matrix
+from elastyle.core.skeleton import Skeleton, check_mirrorable
 from elastyle.types import FloatArray, IntArray
 
 _REFLECT_X = np.diag([-1.0, 1.0, 1.0])

@@ -11,10 +11,10 @@ from typing import Final
 
 import numpy as np
 
-from elastyle.body import Limbs, find_limbs, leg_length
-from elastyle.motion import Motion
-from elastyle.rotations import from_matrix, lengths, to_matrix
-from elastyle.skeleton import Skeleton
+from elastyle.core.body import Limbs, find_limbs, leg_length
+from elastyle.core.motion import Motion
+from elastyle.core.rotations import from_matrix, lengths, to_matrix
+from elastyle.core.skeleton import Skeleton
 from elastyle.types import BoolArray, FloatArray, IntArray
 
 GROUND_PERCENTILE = 5.0  # a foot joint's ground level: this percentile of its heights over the clip

@@ -1,0 +1,40 @@
+"""How to train: the step budget, the optimiser and the augmentations (no torch needed to read it)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from elastyle.io.dataset import HOLDOUT_EVERY
+from elastyle.model.config import ModelConfig
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """The report's recipe by default (docs/method.md, "Training"), plus the augmentations that widen the
+    pose space beyond the recorded clips.
+
+    window_s: length of a training window, seconds (short clips, such as one raise of a hand, must fit).
+    reverse_augment: share of windows played backwards (a backward walk from a forward one).
+    speed_augment: share of batches resampled in time by a factor drawn log-uniformly from speed_range
+        (0.5 = half speed, 2 = twice as fast).
+    position_loss: weight of a forward-kinematics joint position and velocity loss; position_scale is the
+        length (file units) that counts as 1 in it.
+    """
+
+    model: ModelConfig = field(default_factory=ModelConfig)
+    batch_size: int = 16
+    learning_rate: float = 1e-4
+    lr_schedule: str = "constant"  # or "cosine" (to 5 % of the rate over the budget)
+    window_s: float = 4.0
+    minutes: float | None = None
+    steps: int | None = None
+    seed: int = 0
+    mirror_augment: bool = True
+    reverse_augment: float = 0.0
+    speed_augment: float = 0.0
+    speed_range: tuple[float, float] = (0.5, 2.0)
+    holdout_every: int = HOLDOUT_EVERY
+    checkpoint_every: int = 500
+    fps: float | None = None  # default: the first clip's
+    position_loss: float = 0.0
+    position_scale: float = 10.0

@@ -1,0 +1,216 @@
+"""The training loop: the only code that runs torch (imported when `train` is called).
+
+The report's recipe (docs/method.md, "Training"): Adam, batch 16, learning rate 1e-4, windows sampled
+uniformly, features normalised per channel; mirrored clips, backward playback and speed changes are added
+as augmentation. Clips are split into training and held-out sets by take (whole files, never windows).
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import json
+import logging
+import math
+import time
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from elastyle.errors import ElastyleError, SkeletonMismatchError
+from elastyle.model.features import FeatureSpec
+from elastyle.io.dataset import ClipRef, find_clips, is_held_out
+from elastyle.core.mirror import mirror
+from elastyle.model.autoencoder import Autoencoder
+from elastyle.model.file import StyleModel, save_model
+from elastyle.core.motion import Motion
+from elastyle.training.config import TrainConfig
+from elastyle.training.windows import draw_speed, sample_windows
+
+log = logging.getLogger(__name__)
+
+
+def _read_resampled(task: tuple[ClipRef, float | None]) -> Motion:
+    clip, fps = task
+    motion, _ = clip.read()
+    return motion if fps is None else motion.resample(fps)
+
+
+def load_motions(clips: Sequence[ClipRef], fps: float | None, workers: int = 2) -> list[Motion]:
+    """Read clips (in parallel), resampled to `fps`; all must share one skeleton."""
+    tasks = [(clip, fps) for clip in clips]
+    if len(tasks) > 8 and workers > 1:
+        with ProcessPoolExecutor(workers) as pool:
+            motions = list(pool.map(_read_resampled, tasks, chunksize=16))
+    else:
+        motions = [_read_resampled(t) for t in tasks]
+    for clip, motion in zip(clips, motions):
+        motions[0].skeleton.check_same(motion.skeleton, clips[0].name, clip.name)
+    return motions
+
+
+def train(
+    data: Sequence[str],
+    output: str,
+    config: TrainConfig,
+    resume: str | None = None,
+    force: bool = False,
+    progress: bool = True,
+    exclude: Sequence[str] = (),
+) -> StyleModel:
+    """Train a model on the clips that `data` names (less those whose file name, without extension,
+    matches a glob of `exclude`) and write it to `output`; returns the model."""
+    import torch
+
+    torch.manual_seed(config.seed)
+    rng = np.random.default_rng(config.seed)
+    clips = [c for c in find_clips(data) if not any(fnmatch.fnmatch(c.stem, p) for p in exclude)]
+    if not clips:
+        raise ElastyleError(f"{', '.join(map(str, data))}: every clip is excluded by {', '.join(exclude)}")
+    held_out = [c for c in clips if is_held_out(c, config.holdout_every)]
+    training = [c for c in clips if not is_held_out(c, config.holdout_every)]
+    if not training:
+        training, held_out = held_out, []
+    log.info("clips: %d for training, %d held out (by take)", len(training), len(held_out))
+    fps = config.fps
+    if fps is None:
+        fps = training[0].read()[0].fps
+    train_motions = load_motions(training, fps)
+    val_motions = load_motions(held_out, fps) if held_out else []
+    skeleton = train_motions[0].skeleton
+    for clip, motion in zip(held_out, val_motions):
+        skeleton.check_same(motion.skeleton, training[0].name, clip.name)
+    if config.mirror_augment:
+        try:
+            train_motions = train_motions + [mirror(m) for m in train_motions]
+        except SkeletonMismatchError:
+            log.warning("no left/right joint pairs: training without mirrored clips")
+    spec = FeatureSpec.fit(train_motions[:: max(1, len(train_motions) // 400)])
+    train_features = [spec.encode(m)[0] for m in train_motions]
+    val_features = [spec.encode(m)[0] for m in val_motions]
+    stacked = np.concatenate(train_features)
+    mean = stacked.mean(axis=0)
+    std = np.maximum(stacked.std(axis=0), 1e-2)  # constant channels (unused joints) stay finite
+    # a window as long as asked where clips allow, but never longer than the longest clip
+    window = max(2, min(int(round(config.window_s * fps)), max(f.shape[0] for f in train_features)))
+    train_norm = [((f - mean) / std).astype(np.float32) for f in train_features]
+    val_norm = [((f - mean) / std).astype(np.float32) for f in val_features if f.shape[0] >= window]
+    longest = max(f.shape[0] for f in train_features)
+
+    from elastyle.training.network import PosePositions, TorchAutoencoder
+
+    network = TorchAutoencoder(config.model, spec.num_channels)
+    pose_positions = PosePositions(spec, mean, std)
+    optimizer = torch.optim.Adam(network.parameters(), lr=config.learning_rate)
+    step = 0
+    elapsed_before = 0.0
+    checkpoint_path = Path(str(output) + ".ckpt")
+    if resume:
+        state = torch.load(resume, weights_only=True)
+        network.load_state_dict(state["network"])
+        optimizer.load_state_dict(state["optimizer"])
+        step = int(state["step"])
+        elapsed_before = float(state["elapsed_s"])
+        rng = np.random.default_rng(config.seed + step)
+        log.info("resumed from %s at step %d", resume, step)
+    budget_steps = config.steps if config.steps is not None else 10**9
+    budget_s = config.minutes * 60 if config.minutes is not None else math.inf
+    if config.steps is None and config.minutes is None:
+        raise ElastyleError("give a training budget: --minutes or --steps")
+    val_batch = (
+        torch.from_numpy(sample_windows(val_norm, window, 64, np.random.default_rng(1))) if val_norm else None
+    )
+
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=config.steps, initial=step, unit="step", dynamic_ncols=True)
+    started = time.perf_counter()
+    val_loss = float("nan")
+    train_loss = float("nan")
+    while step < budget_steps and elapsed_before + time.perf_counter() - started < budget_s:
+        if config.lr_schedule == "cosine":
+            fraction = (
+                step / budget_steps
+                if config.steps
+                else (elapsed_before + time.perf_counter() - started) / budget_s
+            )
+            rate = config.learning_rate * (0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * min(fraction, 1.0))))
+            for group in optimizer.param_groups:
+                group["lr"] = rate
+        speed = min(draw_speed(rng, config.speed_augment, config.speed_range), longest / window)
+        batch = torch.from_numpy(
+            sample_windows(train_norm, window, config.batch_size, rng, speed, config.reverse_augment)
+        )
+        reconstruction = network(batch)
+        loss = torch.mean((reconstruction - batch) ** 2)
+        if config.position_loss > 0:
+            predicted = pose_positions(reconstruction) / config.position_scale
+            target = pose_positions(batch) / config.position_scale
+            position_error = torch.mean((predicted - target) ** 2)
+            velocity_error = torch.mean((torch.diff(predicted, dim=1) - torch.diff(target, dim=1)) ** 2) * fps
+            loss = loss + config.position_loss * (position_error + velocity_error)
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+        step += 1
+        train_loss = float(loss.detach())
+        if step % 100 == 0 and val_batch is not None:
+            with torch.no_grad():
+                val_loss = float(torch.mean((network(val_batch) - val_batch) ** 2))
+        if bar is not None:
+            bar.update(1)
+            bar.set_postfix(loss=f"{train_loss:.4f}", val=f"{val_loss:.4f}")
+        if step % config.checkpoint_every == 0:
+            _save_checkpoint(
+                checkpoint_path, network, optimizer, step, elapsed_before + time.perf_counter() - started
+            )
+    if bar is not None:
+        bar.close()
+    elapsed = elapsed_before + time.perf_counter() - started
+    _save_checkpoint(checkpoint_path, network, optimizer, step, elapsed)
+    if val_batch is not None:
+        with torch.no_grad():
+            val_loss = float(torch.mean((network(val_batch) - val_batch) ** 2))
+    metadata = {
+        "train_config": json.loads(json.dumps(asdict(config))),
+        "steps": step,
+        "training_minutes": round(elapsed / 60, 2),
+        "final_train_loss": train_loss,
+        "held_out_loss": val_loss,
+        "training_clips": len(training),
+        "held_out_clips": len(held_out),
+        "split": f"held out: takes numbered % {config.holdout_every} == 0 (other names: crc32 % {config.holdout_every} == 0)",
+    }
+    model = StyleModel(
+        config.model,
+        spec,
+        mean,
+        std,
+        Autoencoder(config.model, network.numpy_weights()),
+        float(fps),
+        metadata,
+    )
+    save_model(output, model, force=force)
+    log.info("wrote %s after %d steps (%.1f min), held-out loss %.4f", output, step, elapsed / 60, val_loss)
+    return model
+
+
+def _save_checkpoint(path: Path, network: Any, optimizer: Any, step: int, elapsed_s: float) -> None:
+    import torch
+
+    temporary = path.with_suffix(".tmp")
+    torch.save(
+        {
+            "network": network.state_dict(),
+            "optimizer": optimizer.state_dict(),
+            "step": step,
+            "elapsed_s": elapsed_s,
+        },
+        temporary,
+    )
+    temporary.replace(path)

@@ -1,1 +1,0 @@
-"""The style converter: whitening/colouring, elastic patch search, and the transfer pipeline."""
