@@ -27,12 +27,14 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from elastyle.core.motion import Motion  # noqa: E402
 from elastyle.io.bvh import bvh_text, parse_bvh  # noqa: E402
 from elastyle.io.dataset import default_data_path, find_clips  # noqa: E402
 from elastyle.model.file import load_model  # noqa: E402
-from elastyle.core.motion import Motion  # noqa: E402
+from elastyle.pipeline import transfer  # noqa: E402
 from elastyle.steps import search as elastic  # noqa: E402
-from elastyle.steps.stylize import TransferConfig, prepare_style, transfer  # noqa: E402
+from elastyle.steps.config import TransferConfig  # noqa: E402
+from elastyle.steps.library import prepare_style  # noqa: E402
 
 # (stretch step, label, placement): the sequential search has one library pass per patch (each patch
 # starts where the previous one's matched stretch ended); the fixed placement searches all in one batch
@@ -106,12 +108,12 @@ def run_case(name: str, model, content: Motion, style_motions: list[Motion], ste
              placement: str = "sequential") -> None:  # fmt: skip
     config = TransferConfig(stretch_step_s=step_s, placement=placement)
     library = prepare_style(model, style_motions)
-    transfer(content, library, model, config)  # warm the window cache
+    transfer(content, library, config, model=model)  # warm the window cache
     total_s, search_s = np.inf, np.inf
     for _ in range(3):  # best of three, for the whole transfer and for its search
         with SearchTimer() as timer:
             started = time.perf_counter()
-            transfer(content, library, model, config)
+            transfer(content, library, config, model=model)
             total_s = min(total_s, time.perf_counter() - started)
         search_s = min(search_s, timer.seconds)
     rows = sum(s[0] for s in timer.shapes)
@@ -119,7 +121,7 @@ def run_case(name: str, model, content: Motion, style_motions: list[Motion], ste
     matmul_s = plain_matmul_s(rows, inner, columns)
     flops = 2.0 * rows * inner * columns
     tracemalloc.start()
-    transfer(content, library, model, config)
+    transfer(content, library, config, model=model)
     peak_mb = tracemalloc.get_traced_memory()[1] / 1e6
     tracemalloc.stop()
     print(
@@ -152,13 +154,13 @@ def main() -> int:
     library = prepare_style(model, [style_10])
     square = np.random.default_rng(0).standard_normal((1024, 1024), dtype=np.float32)
     gemm_s, whole = interleaved_best(
-        lambda: square @ square, lambda: transfer(content_10, library, model, config), 10
+        lambda: square @ square, lambda: transfer(content_10, library, config, model=model), 10
     )
     print(f"10 s x 10 s transfer {1000 * whole:.1f} ms / half a 1024^3 matmul (the matmul {1000 * gemm_s:.1f} ms "
           f"in these alternate runs): {whole / (gemm_s / 2):.2f} (target <= 1)")  # fmt: skip
     gemm_s, bare = interleaved_best(
         lambda: square @ square,
-        lambda: transfer(content_10, library, model, TransferConfig(cleanup=False)),
+        lambda: transfer(content_10, library, TransferConfig(cleanup=False), model=model),
         10,
     )
     print(f"  without the foot clean-up: {bare / (gemm_s / 2):.2f} ({1000 * bare:.1f} ms)")
@@ -176,7 +178,7 @@ def main() -> int:
             run_case(f"60 s x 10 min library, {label}", model, long_content, chosen, step_s, placement)
         encode_s = best_of(lambda: prepare_style(model, chosen), 1)
         cached = prepare_style(model, chosen)
-        with_cache = best_of(lambda: transfer(content_10, cached, model, config), 3)
+        with_cache = best_of(lambda: transfer(content_10, cached, config, model=model), 3)
         print(
             f"10 s content x 10 min library: encoding the library {1000 * encode_s:.0f} ms, transfer with it "
             f"cached {1000 * with_cache:.0f} ms (speed-up {(encode_s + with_cache) / with_cache:.1f}x)"

@@ -11,7 +11,7 @@ import sys
 from elastyle.eval.benchmark import benchmark_pairs, score_pairs
 from elastyle.io.dataset import default_data_path
 from elastyle.model.file import load_model
-from elastyle.steps.stylize import TransferConfig
+from elastyle.steps.config import TransferConfig
 
 
 def main() -> int:

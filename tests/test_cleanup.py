@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 
 from elastyle.core.body import centimetres_per_unit, find_limbs
-from elastyle.steps.cleanup import adjust_root_speed, clean_feet, detect_contacts, ground_level
+from elastyle.core.motion import Motion
+from elastyle.core.skeleton import Skeleton
 from elastyle.eval.metrics import foot_skating_cm_s, jerk
 from elastyle.io.bvh import parse_bvh
 from elastyle.io.dataset import ClipRef
-from elastyle.core.motion import Motion
-from elastyle.core.skeleton import Skeleton
+from elastyle.steps.cleanup import adjust_root_speed, clean_feet, detect_contacts, ground_level
 from elastyle.types import BoolArray, FloatArray
 from tests.conftest import THREE_CHANNEL_BVH, clip_named
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from elastyle import SkeletonMismatchError, mirror, read_bvh
-from elastyle.model.features import FeatureSpec
 from elastyle.core.rotations import continuous_log, from_quat, to_quat
+from elastyle.model.features import FeatureSpec
 
 
 def test_quaternion_round_trip_and_identity_is_safe() -> None:

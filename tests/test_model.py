@@ -135,9 +135,9 @@ def test_model_with_other_skeleton_lists_the_joints(three_channel_bvh: Path) -> 
 def test_training_works_on_another_skeleton(tmp_path: Path, three_channel_bvh: Path) -> None:
     """A 3-channel skeleton of another naming scheme: train a few steps, then transfer with the model."""
     from elastyle import write_bvh
+    from elastyle.pipeline import transfer
     from elastyle.training.config import TrainConfig
     from elastyle.training.loop import train
-    from elastyle.steps.stylize import transfer
 
     motion, layout = read_bvh(three_channel_bvh)
     swing = np.sin(np.arange(90) / 6.0)[:, None]  # (T, 1) a leg swing at about 0.8 Hz
@@ -159,5 +159,5 @@ def test_training_works_on_another_skeleton(tmp_path: Path, three_channel_bvh: P
     loaded = load_model(tmp_path / "own.npz")
     style, _ = read_bvh(tmp_path / "walk_2.bvh")
     content, _ = read_bvh(tmp_path / "walk_0.bvh")
-    out = transfer(content, style, loaded).motion
+    out = transfer(content, style, model=loaded).motion
     assert out.skeleton.names == content.skeleton.names and np.all(np.isfinite(out.rotations))

@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from elastyle.core.motion import Motion
 from elastyle.errors import ElastyleError, OutputError
 from elastyle.io.bvh import read_bvh
 from elastyle.io.dataset import ClipRef
-from elastyle.core.motion import Motion
 from elastyle.viewer.render import (
     PANEL_PX,
     bones,

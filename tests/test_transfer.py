@@ -10,7 +10,9 @@ from elastyle.eval.metrics import cadence_steps_s, timing_error
 from elastyle.eval.reconstruction import reconstruct
 from elastyle.io.dataset import ClipRef
 from elastyle.model.file import load_model
-from elastyle.steps.stylize import TransferConfig, prepare_style, transfer
+from elastyle.pipeline import transfer
+from elastyle.steps.config import TransferConfig
+from elastyle.steps.library import prepare_style
 from tests.conftest import clip_named
 
 
@@ -38,7 +40,7 @@ def _path(motion: Motion) -> np.ndarray:
 def test_each_method_gives_a_clip_on_the_content_skeleton(
     model, content: Motion, style_clip: Motion, method: str
 ) -> None:  # type: ignore[no-untyped-def]
-    result = transfer(content, style_clip, model, TransferConfig(method=method))
+    result = transfer(content, style_clip, TransferConfig(method=method), model=model)
     out = result.motion
     assert out.skeleton is content.skeleton
     assert out.fps == content.fps
@@ -57,9 +59,9 @@ def test_elastic_takes_the_style_timing_and_rigid_does_not(
 ) -> None:  # type: ignore[no-untyped-def]
     f_content, f_style = cadence_steps_s(content), cadence_steps_s(style_clip)
     assert abs(f_content - f_style) > 0.15
-    elastic = transfer(content, style_clip, model).motion
-    rigid = transfer(content, style_clip, model, TransferConfig(method="rigid")).motion
-    fixed = transfer(content, style_clip, model, TransferConfig(placement="fixed")).motion
+    elastic = transfer(content, style_clip, model=model).motion
+    rigid = transfer(content, style_clip, TransferConfig(method="rigid"), model=model).motion
+    fixed = transfer(content, style_clip, TransferConfig(placement="fixed"), model=model).motion
     e_elastic = timing_error(cadence_steps_s(elastic), f_content, f_style)
     e_rigid = timing_error(cadence_steps_s(rigid), f_content, f_style)
     e_fixed = timing_error(cadence_steps_s(fixed), f_content, f_style)
@@ -71,17 +73,17 @@ def test_elastic_takes_the_style_timing_and_rigid_does_not(
 def test_strength_zero_is_the_content_through_the_autoencoder(
     model, content: Motion, style_clip: Motion
 ) -> None:  # type: ignore[no-untyped-def]
-    out = transfer(content, style_clip, model, TransferConfig(cleanup=False), strength=0.0).motion
+    out = transfer(content, style_clip, TransferConfig(cleanup=False), model=model, strength=0.0).motion
     assert out.num_frames == content.num_frames
     np.testing.assert_allclose(out.positions(), reconstruct(model, content).positions(), atol=1e-3)
 
 
 def test_strength_schedule_fades_the_style_in(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
-    faded = transfer(content, style_clip, model, TransferConfig(cleanup=False), strength="0:0,2:0,4:1").motion
+    faded = transfer(content, style_clip, TransferConfig(cleanup=False), model=model, strength="0:0,2:0,4:1").motion
     plain = reconstruct(model, content)
     # during the first two seconds the output is the content (through the autoencoder), frame for frame
     np.testing.assert_allclose(faded.positions()[:45], plain.positions()[:45], atol=1e-3)
-    full = transfer(content, style_clip, model).motion
+    full = transfer(content, style_clip, model=model).motion
     assert faded.num_frames != content.num_frames or full.num_frames == content.num_frames
     # after the fade the style's timing takes over: the output is not the content frame for frame
     assert np.abs(faded.positions()[-30:] - plain.positions()[-30:]).max() > 1.0
@@ -92,18 +94,18 @@ def test_transition_and_blend_of_two_styles(
 ) -> None:  # type: ignore[no-untyped-def]
     slow_style = clip_named(dataset_clips, "dataset-2_walk_masculine_010").read()[0]
     raw = TransferConfig(cleanup=False)
-    only_first = transfer(content, style_clip, model, raw).motion
+    only_first = transfer(content, style_clip, raw, model=model).motion
     change = transfer(
-        content, style_clip, model, raw, second_style=slow_style, second_weight="3:0,5:1"
+        content, style_clip, raw, model=model, second_style=slow_style, second_weight="3:0,5:1"
     ).motion
     # before the change begins, the output is the first style's
     np.testing.assert_allclose(change.positions()[:60], only_first.positions()[:60], atol=1e-3)
-    blend = transfer(content, style_clip, model, second_style=slow_style, second_weight=0.5).motion
+    blend = transfer(content, style_clip, model=model, second_style=slow_style, second_weight=0.5).motion
     assert np.all(np.isfinite(blend.rotations))
 
 
 def test_explain_lists_every_patch(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
-    result = transfer(content, style_clip, model, style_names=["slow.bvh"])
+    result = transfer(content, style_clip, model=model, style_names=["slow.bvh"])
     patches = result.explain["styles"][0]["patches"]
     assert len(patches) >= content.duration_s / 1.25 - 1
     for row in patches:
@@ -121,37 +123,37 @@ def test_explain_lists_every_patch(model, content: Motion, style_clip: Motion) -
 def test_style_library_of_several_clips_and_a_short_style(model, content: Motion, dataset_clips) -> None:  # type: ignore[no-untyped-def]
     styles = [clip_named(dataset_clips, f"dataset-2_walk_elderly_{take:03d}").read()[0] for take in (5, 10)]
     library = prepare_style(model, styles, ["a.bvh", "b.bvh"])
-    result = transfer(content, library, model)
+    result = transfer(content, library, model=model)
     used = {row["style_clip"] for row in result.explain["styles"][0]["patches"]}
     assert used <= {"a.bvh", "b.bvh"}
     short_style = styles[0].slice(0, 45)  # 1.5 s, shorter than the content
-    out = transfer(content, short_style, model).motion
+    out = transfer(content, short_style, model=model).motion
     assert np.all(np.isfinite(out.rotations))
 
 
 def test_content_shorter_than_one_patch_still_transfers(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
     short = content.slice(0, 12)  # 0.4 s, less than the 1 s patch: documented fallback
-    out = transfer(short, style_clip, model).motion
+    out = transfer(short, style_clip, model=model).motion
     assert 1 <= out.num_frames <= 12 * 1.5
     with pytest.raises(ClipTooShortError, match="at least 2"):
-        transfer(content.slice(0, 1), style_clip, model)
+        transfer(content.slice(0, 1), style_clip, model=model)
 
 
 def test_style_shorter_than_minimum_patch_is_a_clear_error(
     model, content: Motion, style_clip: Motion
 ) -> None:  # type: ignore[no-untyped-def]
     with pytest.raises(ClipTooShortError, match="style clips are at most"):
-        transfer(content, style_clip.slice(0, 3), model, TransferConfig(mirror_style=False))
+        transfer(content, style_clip.slice(0, 3), TransferConfig(mirror_style=False), model=model)
 
 
 def test_same_input_gives_identical_output(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
-    first = transfer(content, style_clip, model).motion
-    second = transfer(content, style_clip, model).motion
+    first = transfer(content, style_clip, model=model).motion
+    second = transfer(content, style_clip, model=model).motion
     np.testing.assert_array_equal(first.rotations, second.rotations)
 
 
 def test_content_timing_keeps_the_content_clock(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
-    out = transfer(content, style_clip, model, TransferConfig(timing="content")).motion
+    out = transfer(content, style_clip, TransferConfig(timing="content"), model=model).motion
     assert out.num_frames == content.num_frames
     f_content, f_style = cadence_steps_s(content), cadence_steps_s(style_clip)
     assert timing_error(cadence_steps_s(out), f_content, f_style) > 0.7
@@ -160,12 +162,12 @@ def test_content_timing_keeps_the_content_clock(model, content: Motion, style_cl
 
 @pytest.mark.parametrize("timing", ["style", "content"])
 def test_cleanup_plants_the_feet(model, content: Motion, style_clip: Motion, timing: str) -> None:  # type: ignore[no-untyped-def]
-    from elastyle.steps.cleanup import ground_level
     from elastyle.eval.metrics import foot_skating_cm_s
     from elastyle.eval.report import bone_length_error_cm
+    from elastyle.steps.cleanup import ground_level
 
-    raw = transfer(content, style_clip, model, TransferConfig(timing=timing, cleanup=False)).motion
-    clean = transfer(content, style_clip, model, TransferConfig(timing=timing)).motion
+    raw = transfer(content, style_clip, TransferConfig(timing=timing, cleanup=False), model=model).motion
+    clean = transfer(content, style_clip, TransferConfig(timing=timing), model=model).motion
     assert foot_skating_cm_s(clean) <= 8.0 < foot_skating_cm_s(raw)
     assert bone_length_error_cm(clean, content) < 1e-6
     toes = clean.positions()[:, [clean.skeleton.index("Toes_L"), clean.skeleton.index("Toes_R")], 1]

@@ -1,14 +1,19 @@
 """elastyle: zero-shot motion style transfer with elastic patches.
 
 The public API:
-    read_bvh, write_bvh, Motion, Skeleton   clips in and out
-    mirror, find_clips                      data helpers
-    load_model, transfer                    style transfer (see `elastyle.transfer`)
+    read_bvh, write_bvh, BvhLayout, Motion, Skeleton    clips in and out
+    transfer, TransferConfig, TransferResult            the transfer (`elastyle.pipeline` shows its steps)
+    load_model, prepare_style, StyleLibrary             a model, and a style library encoded once for reuse
+    mirror, find_clips, forward_kinematics              data helpers
 """
 
+from elastyle.core.mirror import mirror
+from elastyle.core.motion import Motion
+from elastyle.core.skeleton import Skeleton, forward_kinematics
 from elastyle.errors import (
     BvhError,
     ClipTooShortError,
+    ConfigError,
     DatasetError,
     ElastyleError,
     ModelError,
@@ -17,14 +22,16 @@ from elastyle.errors import (
 )
 from elastyle.io.bvh import BvhLayout, read_bvh, write_bvh
 from elastyle.io.dataset import find_clips
-from elastyle.core.mirror import mirror
-from elastyle.core.motion import Motion
-from elastyle.core.skeleton import Skeleton, forward_kinematics
+from elastyle.model.file import load_model
+from elastyle.pipeline import TransferResult, transfer
+from elastyle.steps.config import TransferConfig
+from elastyle.steps.library import StyleLibrary, prepare_style
 
 __all__ = [
     "BvhError",
     "BvhLayout",
     "ClipTooShortError",
+    "ConfigError",
     "DatasetError",
     "ElastyleError",
     "ModelError",
@@ -32,10 +39,16 @@ __all__ = [
     "OutputError",
     "Skeleton",
     "SkeletonMismatchError",
+    "StyleLibrary",
+    "TransferConfig",
+    "TransferResult",
     "find_clips",
     "forward_kinematics",
+    "load_model",
     "mirror",
+    "prepare_style",
     "read_bvh",
+    "transfer",
     "write_bvh",
 ]
 __version__ = "0.1.0"

@@ -42,4 +42,8 @@ class OutputError(ElastyleError):
 
 
 class UsageError(ElastyleError):
-    """A wrong combination of command-line options (exit code 2)."""
+    """A wrong command line: an option out of range or a wrong combination of options (exit code 2)."""
+
+
+class ConfigError(UsageError):
+    """A transfer option out of its declared range or choices (from Python or the command line)."""

@@ -37,10 +37,10 @@ def _command_info(args: argparse.Namespace) -> int:
 
 
 def _command_convert(args: argparse.Namespace) -> int:
+    from elastyle.core.mirror import mirror
     from elastyle.io.bvh import write_bvh
     from elastyle.io.dataset import read_clip
     from elastyle.io.files import check_output_path
-    from elastyle.core.mirror import mirror
 
     check_output_path(args.output, force=args.force, inputs=(args.input,))
     motion, layout = read_clip(args.input)

@@ -84,7 +84,9 @@ def run_demo(args: argparse.Namespace) -> int:
     from elastyle.io.dataset import PUBLIC_DATASET_HINT, default_data_path, find_clips
     from elastyle.io.files import write_text_atomic
     from elastyle.model.file import load_model
-    from elastyle.steps.stylize import TransferConfig, prepare_style, transfer
+    from elastyle.pipeline import transfer
+    from elastyle.steps.config import TransferConfig
+    from elastyle.steps.library import prepare_style
 
     data = args.data or default_data_path()
     if data is None or not Path(data).exists():
@@ -107,7 +109,7 @@ def run_demo(args: argparse.Namespace) -> int:
         library = prepare_style(model, [style], [clips[stem].name])
         style_name = stem.split("_")[2]
         for method in ("elastic", "rigid"):
-            result = transfer(content, library, model, TransferConfig(method=method))
+            result = transfer(content, library, TransferConfig(method=method), model=model)
             base = folder / f"{style_name}_{method}"
             write_bvh(base.with_suffix(".bvh"), result.motion, layout, force=args.force)
             write_text_atomic(

@@ -5,13 +5,21 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 import sys
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
+from elastyle.cli.options import add_config_flags, config_from_args
+from elastyle.core.motion import Motion
 from elastyle.errors import ElastyleError, OutputError, UsageError
 from elastyle.io.dataset import ClipRef
-from elastyle.core.motion import Motion
+from elastyle.steps.config import TransferConfig
+
+if TYPE_CHECKING:
+    from elastyle.model.file import StyleModel
+    from elastyle.steps.library import StyleLibrary
+    from elastyle.steps.schedule import Schedule
 
 log = logging.getLogger("elastyle")
 
@@ -30,56 +38,16 @@ def add_transfer_command(commands: Any) -> None:
         "-o", "--output", required=True, help="output BVH, or a folder for several content clips"
     )
     parser.add_argument("--model", help="model file (default: the shipped pretrained model)")
-    parser.add_argument("--method", choices=("elastic", "rigid", "wct", "adain"), default="elastic")
-    parser.add_argument(
-        "--placement",
-        choices=("sequential", "fixed"),
-        default="sequential",
-        help="sequential: output takes the style's timing (default); fixed: the report read literally",
-    )
-    parser.add_argument("--patch-s", type=float, default=1.0, help="patch length, seconds (default 1.0)")
-    parser.add_argument(
-        "--stretch", type=float, default=0.25, help="allowed stretch of a content patch, +-fraction"
-    )
-    parser.add_argument(
-        "--stretch-step-s",
-        type=float,
-        default=4 / 60,
-        help="spacing of tried patch lengths, seconds (default: the report's 4 frames at 60 fps; 0 = every frame)",
-    )
-    parser.add_argument(
-        "--strength", default="1", help="0..1, or keyframes in content seconds such as 0:0,2:1"
-    )
+    add_config_flags(parser, TransferConfig)
     parser.add_argument(
         "--then-style", action="append", help="a second style to change to (see --at, --over)"
     )
     parser.add_argument("--at", type=float, help="content time (s) where the change to --then-style starts")
-    parser.add_argument("--over", type=float, default=1.0, help="duration (s) of the change to --then-style")
+    parser.add_argument("--over", type=float, help="duration (s) of the change to --then-style (default 1)")
     parser.add_argument("--blend-style", action="append", help="a second style blended in at --blend")
-    parser.add_argument("--blend", type=float, default=0.5, help="share of --blend-style, 0..1 (default 0.5)")
-    parser.add_argument(
-        "--no-mirror-style", action="store_true", help="do not add the style's mirror to its library"
-    )
+    parser.add_argument("--blend", type=float, help="share of --blend-style, 0..1 (default 0.5)")
     parser.add_argument("--explain", help="write a JSON record of every output patch's source")
     parser.add_argument("--no-cache", action="store_true", help="encode the style library afresh (no cache)")
-    parser.add_argument(
-        "--smooth-s",
-        type=float,
-        default=0.0,
-        help="Gaussian low-pass of the decoded motion, sigma in seconds (default 0: none)",
-    )
-    parser.add_argument(
-        "--timing",
-        choices=("style", "content"),
-        default="style",
-        help="style: the style's pace (default); content: warped back onto the content's clock",
-    )
-    parser.add_argument("--no-cleanup", action="store_true", help="the raw result: no foot contact clean-up")
-    parser.add_argument(
-        "--adjust-root",
-        action="store_true",
-        help="move the root with the stance foot before the clean-up (the path may drift from the content's)",
-    )
     parser.add_argument(
         "--jobs", type=int, default=None, metavar="N",
         help="processes for several content clips (default: one per core)",
@@ -113,32 +81,12 @@ def run_transfer(args: argparse.Namespace) -> int:
     from elastyle.model.file import load_model
     from elastyle.steps.cache import load_library
     from elastyle.steps.schedule import Schedule
-    from elastyle.steps.stylize import TransferConfig
 
-    if args.then_style and args.blend_style:
-        raise _usage("give --then-style or --blend-style, not both")
-    if args.then_style and args.at is None:
-        raise _usage("--then-style needs --at SECONDS")
-    if args.jobs is not None and args.jobs < 1:
-        raise _usage(f"--jobs must be at least 1, got {args.jobs}")
-    if args.explain and len(args.content) > 1:
-        raise _usage("--explain works with one content clip")
+    config = config_from_args(TransferConfig, args)  # validated once: a bad value is a UsageError
+    _check_style_options(args)
     targets = _outputs(args)
     if args.explain:
         check_output_path(args.explain, force=args.force)
-    config = TransferConfig(
-        method=args.method,
-        placement=args.placement,
-        patch_s=args.patch_s,
-        stretch=args.stretch,
-        stretch_step_s=args.stretch_step_s,
-        mirror_style=not args.no_mirror_style,
-        smooth_s=args.smooth_s,
-        timing=args.timing,
-        cleanup=not args.no_cleanup,
-        adjust_root=args.adjust_root,
-    )
-    strength = Schedule.parse(args.strength, "strength")
     model = load_model(args.model)
 
     def check(clip: ClipRef, motion: Motion) -> None:
@@ -148,7 +96,7 @@ def run_transfer(args: argparse.Namespace) -> int:
                 "note: %s is %.6g fps, resampled to the model's %.6g fps", clip.name, motion.fps, model.fps
             )
 
-    def library(specs: list[str]):  # type: ignore[no-untyped-def]
+    def library(specs: list[str]) -> StyleLibrary:
         return load_library(
             model, find_clips(specs), config.mirror_style, use_cache=not args.no_cache, check=check
         )
@@ -158,15 +106,13 @@ def run_transfer(args: argparse.Namespace) -> int:
     second_weight: Schedule = Schedule.constant(0.0)
     if args.then_style:
         second = library(args.then_style)
-        end = args.at + max(args.over, 1e-3)
+        end = args.at + max(1.0 if args.over is None else args.over, 1e-3)
         second_weight = Schedule((args.at, end), (0.0, 1.0))
     elif args.blend_style:
-        if not 0 <= args.blend <= 1:
-            raise _usage(f"--blend must lie between 0 and 1, got {args.blend}")
         second = library(args.blend_style)
-        second_weight = Schedule.constant(args.blend)
+        second_weight = Schedule.constant(0.5 if args.blend is None else args.blend)
 
-    job = _Job(style, model, config, strength, second, second_weight, args.force, args.explain)
+    job = _Job(style, model, config, second, second_weight, args.force, args.explain)
     if len(args.content) == 1:
         _transfer_one(job, args.content[0], targets[0])
         return 0
@@ -176,12 +122,11 @@ def run_transfer(args: argparse.Namespace) -> int:
 class _Job(NamedTuple):
     """Everything a content clip's transfer needs besides the clip: shared by the batch's workers."""
 
-    style: Any
-    model: Any
-    config: Any
-    strength: Any
-    second: Any
-    second_weight: Any
+    style: StyleLibrary
+    model: StyleModel
+    config: TransferConfig
+    second: StyleLibrary | None
+    second_weight: Schedule
     force: bool
     explain: str | None
 
@@ -190,11 +135,11 @@ def _transfer_one(job: _Job, content_spec: str, target: Path) -> None:
     from elastyle.io.bvh import write_bvh
     from elastyle.io.dataset import read_clip
     from elastyle.io.files import write_text_atomic
-    from elastyle.steps.stylize import transfer
+    from elastyle.pipeline import transfer
 
     motion, layout = read_clip(content_spec)
     result = transfer(
-        motion, job.style, job.model, job.config, strength=job.strength, second_style=job.second,
+        motion, job.style, job.config, model=job.model, second_style=job.second,
         second_weight=job.second_weight, content_name=content_spec,
     )  # fmt: skip
     write_bvh(target, result.motion, layout, force=job.force)
@@ -250,5 +195,25 @@ def _transfer_batch(job: _Job, contents: list[str], targets: list[Path], jobs: i
     return 1 if failures else 0
 
 
-def _usage(message: str) -> ElastyleError:
-    return UsageError(message)
+def _check_style_options(args: argparse.Namespace) -> None:
+    """Options that belong together: a UsageError (exit 2) for each combination that makes no sense."""
+    if args.then_style and args.blend_style:
+        raise UsageError("give --then-style or --blend-style, not both")
+    if args.then_style and args.at is None:
+        raise UsageError("--then-style needs --at SECONDS")
+    if not args.then_style and (args.at is not None or args.over is not None):
+        raise UsageError("--at and --over set the change to --then-style; give --then-style too")
+    if not args.blend_style and args.blend is not None:
+        raise UsageError("--blend sets the share of --blend-style; give --blend-style too")
+    for name in ("at", "over", "blend"):
+        value = getattr(args, name)
+        if value is not None and not math.isfinite(value):
+            raise UsageError(f"--{name} must be a finite number, got {value}")
+    if args.over is not None and args.over <= 0:
+        raise UsageError(f"--over must be positive, got {args.over:g} s")
+    if args.blend is not None and not 0 <= args.blend <= 1:
+        raise UsageError(f"--blend must lie between 0 and 1, got {args.blend:g}")
+    if args.jobs is not None and args.jobs < 1:
+        raise UsageError(f"--jobs must be at least 1, got {args.jobs}")
+    if args.explain and len(args.content) > 1:
+        raise UsageError("--explain works with one content clip")

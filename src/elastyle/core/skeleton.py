@@ -9,8 +9,8 @@ from functools import cached_property
 
 import numpy as np
 
-from elastyle.errors import SkeletonMismatchError
 from elastyle.core.rotations import to_matrix
+from elastyle.errors import SkeletonMismatchError
 from elastyle.types import FloatArray, IntArray
 
 # Left/right markers in joint names, matched case-insensitively; group 1 is the side word.

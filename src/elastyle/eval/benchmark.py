@@ -12,12 +12,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from elastyle.core.motion import Motion
 from elastyle.eval.metrics import cadence_steps_s
 from elastyle.eval.report import transfer_figures
 from elastyle.io.dataset import ClipRef, dataset_label, find_clips
 from elastyle.model.file import StyleModel
-from elastyle.core.motion import Motion
-from elastyle.steps.stylize import TransferConfig, prepare_style, transfer
+from elastyle.pipeline import transfer
+from elastyle.steps.config import TransferConfig
+from elastyle.steps.library import prepare_style
 
 MIN_CADENCE_GAP = 0.15
 
@@ -70,7 +72,7 @@ def score_pairs(pairs: list[Pair], model: StyleModel, config: TransferConfig) ->
     for pair in pairs:
         library = prepare_style(model, [pair.style_motion], [pair.style.name], config.mirror_style)
         started = time.perf_counter()
-        result = transfer(pair.content_motion, library, model, config)
+        result = transfer(pair.content_motion, library, config, model=model)
         seconds.append(time.perf_counter() - started)
         figures.append(transfer_figures(result.motion, pair.content_motion, pair.style_motion))
     errors = [f["timing_error"] for f in figures]

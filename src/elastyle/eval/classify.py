@@ -12,9 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from elastyle.core.motion import Motion
 from elastyle.eval.metrics import arm_swing_hz, cadence_steps_s
 from elastyle.model.features import FeatureSpec
-from elastyle.core.motion import Motion
 from elastyle.types import FloatArray
 
 

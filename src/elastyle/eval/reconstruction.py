@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from elastyle.core.motion import Motion
 from elastyle.eval.metrics import reconstruction_errors
 from elastyle.model.file import StyleModel
-from elastyle.core.motion import Motion
 
 
 def reconstruct(model: StyleModel, motion: Motion, smooth_s: float = 0.0) -> Motion:

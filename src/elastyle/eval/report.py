@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from elastyle.core.motion import Motion
 from elastyle.eval.metrics import (
     arm_swing_hz,
     cadence_steps_s,
@@ -12,7 +13,6 @@ from elastyle.eval.metrics import (
     jerk,
     timing_error,
 )
-from elastyle.core.motion import Motion
 
 
 def bone_length_error_cm(motion: Motion, reference: Motion) -> float:

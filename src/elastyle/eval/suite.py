@@ -18,7 +18,9 @@ from elastyle.eval.classify import RidgeClassifier, describe
 from elastyle.eval.report import transfer_figures
 from elastyle.io.dataset import dataset_label, find_clips
 from elastyle.model.file import StyleModel
-from elastyle.steps.stylize import TransferConfig, prepare_style, transfer
+from elastyle.pipeline import transfer
+from elastyle.steps.config import TransferConfig
+from elastyle.steps.library import prepare_style
 
 log = logging.getLogger(__name__)
 
@@ -92,7 +94,7 @@ def _score(
     figures, style_hits, content_hits = [], [], []
     for pair in pairs:
         library = prepare_style(model, [pair.style_motion], [pair.style.name], config.mirror_style)
-        output = transfer(pair.content_motion, library, model, config).motion
+        output = transfer(pair.content_motion, library, config, model=model).motion
         figures.append(transfer_figures(output, pair.content_motion, pair.style_motion))
         descriptor = describe(output.resample(model.fps), model.features)[None]
         style_hits.append(classifiers.style.predict(descriptor)[0] == dataset_label(pair.style)[1])  # type: ignore[index]

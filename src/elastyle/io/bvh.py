@@ -16,11 +16,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-from elastyle.errors import BvhError
-from elastyle.io.files import write_text_atomic
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import from_quat, quat_multiply, to_matrix
 from elastyle.core.skeleton import Skeleton
+from elastyle.errors import BvhError
+from elastyle.io.files import write_text_atomic
 from elastyle.types import FloatArray
 
 _ROTATION_CHANNELS = {"Xrotation": "X", "Yrotation": "Y", "Zrotation": "Z"}

@@ -9,16 +9,16 @@ import fnmatch
 import glob
 import os
 import re
-import zlib
 import zipfile
+import zlib
 from collections.abc import Iterable
 from functools import lru_cache
 from pathlib import Path
 from typing import NamedTuple
 
+from elastyle.core.motion import Motion
 from elastyle.errors import BvhError, DatasetError
 from elastyle.io.bvh import BvhLayout, parse_bvh, read_bvh
-from elastyle.core.motion import Motion
 
 DATA_ENVIRONMENT_VARIABLE = "ELASTYLE_DATA"
 PUBLIC_DATASET_HINT = (

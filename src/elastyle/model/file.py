@@ -17,13 +17,13 @@ from typing import Any
 import numpy as np
 
 from elastyle.core.body import smooth
+from elastyle.core.motion import Motion
+from elastyle.core.skeleton import Skeleton
 from elastyle.errors import ModelError
-from elastyle.model.features import FeatureSpec, RootPath
 from elastyle.io.files import write_bytes_atomic
 from elastyle.model.autoencoder import Autoencoder, AutoencoderWeights
 from elastyle.model.config import ModelConfig
-from elastyle.core.motion import Motion
-from elastyle.core.skeleton import Skeleton
+from elastyle.model.features import FeatureSpec, RootPath
 from elastyle.types import FloatArray
 
 FORMAT_VERSION = 1

@@ -15,12 +15,11 @@ from pathlib import Path
 
 import numpy as np
 
+from elastyle.core.motion import Motion
 from elastyle.io.dataset import ClipRef
 from elastyle.io.files import write_bytes_atomic
 from elastyle.model.file import FORMAT_VERSION, StyleModel
-from elastyle.core.motion import Motion
-from elastyle.steps.stylize import StyleLibrary, prepare_style
-from elastyle.steps.whiten import LatentStats
+from elastyle.steps.library import StyleLibrary, prepare_style
 
 log = logging.getLogger(__name__)
 
@@ -67,10 +66,10 @@ def load_library(
             with np.load(path, allow_pickle=False) as archive:
                 latents = archive["latents"]
                 names = [str(n) for n in archive["names"]]
-                library = StyleLibrary(
-                    names, [bool(m) for m in archive["mirrored"]], archive["clip_starts"], latents,
-                    LatentStats.of([latents[a:b] for a, b in _spans(archive["clip_starts"], len(latents))]),
-                )  # fmt: skip
+                spans = _spans(archive["clip_starts"], len(latents))
+                library = StyleLibrary.of_latents(
+                    names, [bool(m) for m in archive["mirrored"]], [latents[a:b] for a, b in spans]
+                )
             log.debug("style library from cache %s", path)
             return library
         except (OSError, KeyError, ValueError):

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
 
-from elastyle.errors import UsageError as ElastyleError
+from elastyle.errors import ConfigError
 from elastyle.types import FloatArray
 
 
@@ -30,13 +31,15 @@ class Schedule(NamedTuple):
                 pairs = [item.split(":") for item in text.split(",") if item.strip()]
                 schedule = Schedule(tuple(float(t) for t, _ in pairs), tuple(float(v) for _, v in pairs))
         except ValueError:
-            raise ElastyleError(
+            raise ConfigError(
                 f"--{name}: cannot read {text!r}; give a number or 'SECONDS:VALUE,...'"
             ) from None
+        if not all(math.isfinite(t) for t in schedule.times_s):
+            raise ConfigError(f"--{name}: keyframe times must be finite, got {text!r}")
         if any(b <= a for a, b in zip(schedule.times_s, schedule.times_s[1:])):
-            raise ElastyleError(f"--{name}: keyframe times must increase, got {text!r}")
+            raise ConfigError(f"--{name}: keyframe times must increase, got {text!r}")
         if not all(low <= v <= high for v in schedule.values):
-            raise ElastyleError(f"--{name}: values must lie between {low:g} and {high:g}, got {text!r}")
+            raise ConfigError(f"--{name}: values must lie between {low:g} and {high:g}, got {text!r}")
         return schedule
 
     def at(self, times_s: FloatArray) -> FloatArray:

@@ -20,13 +20,13 @@ from typing import Any
 
 import numpy as np
 
-from elastyle.errors import ElastyleError, SkeletonMismatchError
-from elastyle.model.features import FeatureSpec
-from elastyle.io.dataset import ClipRef, find_clips, is_held_out
 from elastyle.core.mirror import mirror
-from elastyle.model.autoencoder import Autoencoder
-from elastyle.model.file import StyleModel, save_model
 from elastyle.core.motion import Motion
+from elastyle.errors import ElastyleError, SkeletonMismatchError
+from elastyle.io.dataset import ClipRef, find_clips, is_held_out
+from elastyle.model.autoencoder import Autoencoder
+from elastyle.model.features import FeatureSpec
+from elastyle.model.file import StyleModel, save_model
 from elastyle.training.config import TrainConfig
 from elastyle.training.windows import draw_speed, sample_windows
 

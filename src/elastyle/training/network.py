@@ -11,10 +11,10 @@ import torch
 from torch import nn
 from torch.nn import functional
 
-from elastyle.model.features import FeatureSpec
+from elastyle.core.rotations import to_quat
 from elastyle.model.autoencoder import AutoencoderWeights
 from elastyle.model.config import ModelConfig
-from elastyle.core.rotations import to_quat
+from elastyle.model.features import FeatureSpec
 from elastyle.types import FloatArray
 
 

@@ -19,8 +19,8 @@ from urllib.parse import urlsplit
 
 import numpy as np
 
-from elastyle.errors import ElastyleError
 from elastyle.core.motion import Motion
+from elastyle.errors import ElastyleError
 from elastyle.viewer.render import bones, grid_spacing, joint_sides
 
 log = logging.getLogger("elastyle")

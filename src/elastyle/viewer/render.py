@@ -19,10 +19,10 @@ from typing import Any
 
 import numpy as np
 
-from elastyle.errors import ElastyleError, OutputError
-from elastyle.io.files import check_output_path, write_bytes_atomic
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
+from elastyle.errors import ElastyleError, OutputError
+from elastyle.io.files import check_output_path, write_bytes_atomic
 from elastyle.types import FloatArray, IntArray
 
 log = logging.getLogger("elastyle")

@@ -1,0 +1,40 @@
+"""Command-line flags built from a config dataclass's fields: one declaration of every option.
+
+A field `patch_s` becomes `--patch-s`; a boolean that defaults on becomes `--no-x`, one that defaults off
+`--x`; choices and help come from the field's metadata (`steps.config.option`). Values are checked by the
+dataclass itself when it is built, so a wrong value is reported the same way from Python and the shell.
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import MISSING, fields
+from typing import Any
+
+
+def add_config_flags(parser: argparse.ArgumentParser, config_type: type) -> None:
+    """One flag per field of `config_type`, with its default shown in the help."""
+    for spec in fields(config_type):
+        flag = spec.name.replace("_", "-")
+        default = spec.default if spec.default is not MISSING else None
+        help_text = spec.metadata.get("help", "")
+        if isinstance(default, bool):
+            name = f"--no-{flag}" if default else f"--{flag}"
+            action = "store_false" if default else "store_true"
+            parser.add_argument(name, dest=spec.name, action=action, default=default, help=help_text)
+            continue
+        choices = spec.metadata.get("choices")
+        kind = str if spec.metadata.get("text") or not isinstance(default, (int, float)) else type(default)
+        parser.add_argument(
+            f"--{flag}", dest=spec.name, type=kind, choices=choices, default=default,
+            help=f"{help_text} (default: {_shown(default)})",
+        )  # fmt: skip
+
+
+def config_from_args(config_type: type, args: argparse.Namespace) -> Any:
+    """The config built from the flags `add_config_flags` declared (validated by the config)."""
+    return config_type(**{spec.name: getattr(args, spec.name) for spec in fields(config_type)})
+
+
+def _shown(value: Any) -> str:
+    return f"{value:.4g}" if isinstance(value, float) else str(value)

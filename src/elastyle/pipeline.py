@@ -1,0 +1,114 @@
+"""The transfer, step by step: a content clip performed in the manner and timing of a style.
+
+Each step is one call into the module that owns it; docs/method.md describes each, with shapes and units.
+
+    read        io.bvh.read_bvh                          (the caller: clips in, `Motion`)
+    features    model.features.FeatureSpec.encode        rotations -> per-frame features (T, C)
+    encode      model.file.StyleModel.encode_motion      features -> latents (T, Z)
+    whiten      steps.whiten.LatentStats.whiten          content and style latents decorrelated
+    match       steps.search.search_sequential / _fixed  elastic patches: stretched content vs style windows
+    place       steps.track._patch_sample                each patch on the content-time grid
+    cross-fade  steps.track.style_track                  two half-shifted patch sequences, triangle weights
+    colour      steps.whiten.LatentStats.colour          the style's statistics
+    retime      steps.timeline                           strength and styles mixed; the output's time map
+    decode      model.file.StyleModel.decode_latents     latents -> features -> `Motion`
+    clean up    steps.cleanup.clean_feet                 feet planted by two-joint leg IK
+    write       io.bvh.write_bvh                         (the caller)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from elastyle.core.motion import Motion
+from elastyle.core.resample import interpolate_rows
+from elastyle.errors import ClipTooShortError
+from elastyle.model.file import StyleModel, load_model
+from elastyle.steps.cleanup import adjust_root_speed, clean_feet, detect_contacts
+from elastyle.steps.config import TransferConfig
+from elastyle.steps.explain import explain
+from elastyle.steps.library import StyleLibrary, as_library
+from elastyle.steps.schedule import Schedule
+from elastyle.steps.timeline import content_grid, mix_tracks, on_output_frames, output_content_times
+from elastyle.steps.track import style_track
+
+StyleInput = Motion | Sequence[Motion] | StyleLibrary
+
+
+class TransferResult(NamedTuple):
+    """The output clip (the content's skeleton and frame rate) and its explain record."""
+
+    motion: Motion
+    explain: dict[str, Any]
+
+
+def transfer(
+    content: Motion,
+    style: StyleInput,
+    config: TransferConfig | None = None,
+    *,
+    model: StyleModel | None = None,
+    second_style: StyleInput | None = None,
+    second_weight: float | str | Schedule = 0.0,
+    style_names: Sequence[str] | None = None,
+    second_style_names: Sequence[str] | None = None,
+    content_name: str = "content",
+    **options: Any,
+) -> TransferResult:
+    """Perform `content` in the manner and timing of `style`.
+
+    style: one clip, several clips (one library), or a prepared `StyleLibrary`.
+    config, options: a `TransferConfig` and/or its fields by name (`strength=0.5, method="rigid"`).
+    second_style, second_weight: a second library and its share, 0 to 1 (keyframed in content seconds for
+        a transition from `style` to `second_style`, constant for a blend).
+    """
+    config = TransferConfig.of(config, **options)
+    model = model or load_model()
+    model.check_clip(content, content_name)
+    fps = model.fps
+    working = content.resample(fps)
+    if working.num_frames < 2:
+        raise ClipTooShortError(f"{content_name}: {content.num_frames} frame(s); a transfer needs at least 2")
+    libraries = [as_library(model, style, style_names, config.mirror_style)]
+    if second_style is not None:
+        libraries.append(as_library(model, second_style, second_style_names, config.mirror_style))
+
+    # features and encode: the content's latents (T, Z) and the root path a transfer keeps
+    content_latents, root = model.encode_motion(working)
+    # whiten, match, place, cross-fade and colour: one track per style library on a content-time grid
+    grid = content_grid(working.num_frames)  # (G,) content frames
+    tracks = [style_track(content_latents, library, grid, config, fps) for library in libraries]
+    # retime: strength and shares mix the tracks; the mixed rate gives each output frame's content time
+    grid_s = grid / fps
+    strength = config.strength_schedule.at(grid_s)
+    shares = [np.ones_like(grid)]
+    if second_style is not None:
+        mix = _as_schedule(second_weight).at(grid_s)
+        shares = [1 - mix, mix]
+    latents, log_rate = mix_tracks(interpolate_rows(content_latents, grid), strength, tracks, shares)
+    content_time = output_content_times(grid, log_rate)  # (T_out,) content frames
+    # decode on the output's timeline, the root path read at the same content times
+    features = model.decode_latents(on_output_frames(latents, grid, content_time), config.smooth_s)
+    decoded = model.features.decode(features, root.sample(content_time), fps)
+    if config.timing == "content":  # the style's manner on the content's clock, by the inverse map
+        decoded = decoded.sample(np.interp(np.arange(working.num_frames), content_time, np.arange(len(content_time))))
+    # the content's own skeleton (its offsets and End Sites), so the output drops into the content's rig
+    motion = Motion(content.skeleton, decoded.rotations, decoded.translations, fps)
+    # clean up: plant the feet
+    if config.cleanup:
+        contacts = None  # found by clean_feet from its own forward kinematics
+        if config.adjust_root:
+            contacts = detect_contacts(motion)
+            motion = adjust_root_speed(motion, contacts)
+        motion = clean_feet(motion, contacts)
+    record = explain(tracks, libraries, content_time, fps, config)
+    return TransferResult(motion.resample(content.fps), record)
+
+
+def _as_schedule(value: float | str | Schedule) -> Schedule:
+    if isinstance(value, Schedule):
+        return value
+    return Schedule.parse(value if isinstance(value, str) else str(float(value)), "second-weight")

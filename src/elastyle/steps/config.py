@@ -1,0 +1,128 @@
+"""How to transfer: `TransferConfig`, the one place where every transfer option is declared.
+
+Each field carries its help text and its allowed values (choices, or a numeric range); the command line
+builds its `transfer` flags from these fields (`elastyle.cli.options`) and the dataclass validates them
+once, in `__post_init__`, whether the values come from Python or from the command line.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields, replace
+from typing import Any
+
+import numpy as np
+
+from elastyle.errors import ConfigError
+from elastyle.steps.schedule import Schedule
+from elastyle.types import IntArray
+
+METHODS = ("elastic", "rigid", "wct", "adain")
+PLACEMENTS = ("sequential", "fixed")
+TIMINGS = ("style", "content")
+DECODINGS = ("plain",)
+
+
+def option(
+    default: Any,
+    help: str,
+    choices: tuple[str, ...] | None = None,
+    low: float | None = None,
+    high: float | None = None,
+    low_open: bool = False,
+    high_open: bool = False,
+    text: bool = False,
+) -> Any:
+    """A config field with its command-line help and allowed values ([low, high], ends open if asked);
+    `text`: the flag's value is passed on as written (a number or keyframes)."""
+    metadata = {"help": help, "choices": choices, "low": low, "high": high, "text": text}
+    metadata |= {"low_open": low_open, "high_open": high_open}
+    return field(default=default, metadata=metadata)
+
+
+@dataclass(frozen=True)
+class TransferConfig:
+    """How to transfer. Times are in seconds; frame counts follow the model's frame rate."""
+
+    method: str = option("elastic", "the report's method or one of its ablations", METHODS)
+    placement: str = option(
+        "sequential",
+        "sequential: the output takes the style's timing; fixed: the report read literally",
+        PLACEMENTS,
+    )
+    patch_s: float = option(1.0, "patch length, seconds", low=0.0, high=60.0, low_open=True)
+    stretch: float = option(
+        0.25, "a content patch may be read from (1 - stretch) to (1 + stretch) times its length",
+        low=0.0, high=1.0, high_open=True,
+    )  # fmt: skip
+    stretch_step_s: float = option(
+        4 / 60, "spacing of the tried patch lengths, seconds (the report's 4 frames at 60 fps; 0 = every frame)",
+        low=0.0, high=10.0,
+    )  # fmt: skip
+    strength: float | str = option(
+        1.0, "0 (the content) to 1 (full style), or keyframes in content seconds such as 0:0,2:1", text=True
+    )
+    mirror_style: bool = option(True, "add each style clip's mirror to its library")
+    smooth_s: float = option(
+        0.0, "Gaussian low-pass of the decoded motion, sigma in seconds (0: none)", low=0.0, high=10.0
+    )
+    timing: str = option(
+        "style", "style: the style's pace; content: warped back onto the content's clock", TIMINGS
+    )
+    decode: str = option("plain", "plain: the report's decoding of the styled latents", DECODINGS)
+    cleanup: bool = option(True, "plant the feet: contacts pinned by two-joint leg IK")
+    adjust_root: bool = option(
+        False, "move the root with the stance foot before the clean-up (the path may drift from the content's)"
+    )
+
+    def __post_init__(self) -> None:
+        for spec in fields(self):
+            _check(spec.name, getattr(self, spec.name), spec.metadata)
+        if isinstance(self.strength, str):
+            Schedule.parse(self.strength, "strength")
+        else:
+            Schedule.parse(str(float(self.strength)), "strength")
+
+    @staticmethod
+    def of(config: TransferConfig | None = None, **options: Any) -> TransferConfig:
+        """`config` (or the defaults) with `options` replaced; a `ConfigError` names an unknown option."""
+        config = config or TransferConfig()
+        known = {spec.name for spec in fields(TransferConfig)}
+        unknown = sorted(set(options) - known)
+        if unknown:
+            raise ConfigError(f"unknown transfer option {unknown[0]!r}; options: {', '.join(sorted(known))}")
+        return replace(config, **options) if options else config
+
+    @property
+    def strength_schedule(self) -> Schedule:
+        text = self.strength if isinstance(self.strength, str) else str(float(self.strength))
+        return Schedule.parse(text, "strength")
+
+    def source_lengths(self, patch_frames: int, fps: float) -> IntArray:
+        """Candidate source lengths L' (frames) for a patch of L frames."""
+        if self.method != "elastic" or self.stretch == 0:
+            return np.array([patch_frames])
+        low = max(2, int(round((1 - self.stretch) * patch_frames)))
+        high = int(round((1 + self.stretch) * patch_frames))
+        step = max(1, int(round(self.stretch_step_s * fps)))
+        lengths = set(range(patch_frames, low - 1, -step)) | set(range(patch_frames, high + 1, step))
+        return np.array(sorted(lengths))
+
+
+def _check(name: str, value: Any, metadata: Any) -> None:
+    """One field against its declared choices and range; `ConfigError` naming the flag."""
+    flag = "--" + name.replace("_", "-")
+    choices = metadata.get("choices")
+    if choices is not None and value not in choices:
+        raise ConfigError(f"{flag}: unknown value {value!r}; choose one of {', '.join(choices)}")
+    low, high = metadata.get("low"), metadata.get("high")
+    if low is None and high is None:
+        return
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ConfigError(f"{flag}: must be a finite number, got {value!r}")
+    below = value <= low if metadata["low_open"] else value < low
+    above = value >= high if metadata["high_open"] else value > high
+    if below or above:
+        left = "(" if metadata["low_open"] else "["
+        right = ")" if metadata["high_open"] else "]"
+        raise ConfigError(f"{flag}: must lie in {left}{low:g}, {high:g}{right}, got {value:g}")

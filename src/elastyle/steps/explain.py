@@ -1,0 +1,52 @@
+"""The explain record of a transfer: where every output patch's manner came from (`--explain FILE.json`)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from elastyle.steps.config import TransferConfig
+from elastyle.steps.library import StyleLibrary
+from elastyle.steps.track import StyleTrack
+from elastyle.types import FloatArray
+
+
+def explain(
+    tracks: Sequence[StyleTrack],
+    libraries: Sequence[StyleLibrary],
+    content_time: FloatArray,
+    fps: float,
+    config: TransferConfig,
+) -> dict[str, Any]:
+    """Per output patch: its style clip (mirrored or not), start frame, stretch factor, similarity and
+    times; content_time (T_out,) is the content frame of each output frame."""
+    styles = []
+    for track, library in zip(tracks, libraries):
+        rows = []
+        for patch in track.patches:
+            clip, frame = library.locate(patch.style_start)
+            start_out = float(np.searchsorted(content_time, patch.content_start)) / fps
+            rows.append(
+                {
+                    "output_start_s": round(start_out, 4),
+                    "content_start_s": round(patch.content_start / fps, 4),
+                    "style_clip": library.names[clip],
+                    "style_mirrored": library.mirrored[clip],
+                    "style_start_frame": frame,
+                    "style_frames": track.patch_frames,
+                    "stretch": round(patch.content_frames / track.patch_frames, 4),
+                    "similarity": round(patch.similarity, 4),
+                }
+            )
+        styles.append({"clips": sorted(set(library.names)), "patches": rows})
+    return {
+        "method": config.method,
+        "placement": config.placement,
+        "patch_s": config.patch_s,
+        "stretch": config.stretch,
+        "model_fps": fps,
+        "output_frames": int(len(content_time)),
+        "styles": styles,
+    }

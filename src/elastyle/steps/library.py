@@ -1,0 +1,102 @@
+"""The style library: style clips (and their mirrors) encoded end to end, with pooled latent statistics.
+
+docs/method.md, "Style library". Encoded once per set of clips (and cached on disk by `steps.cache`), then
+searched by every transfer against it.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from elastyle.core.mirror import mirror
+from elastyle.core.motion import Motion
+from elastyle.errors import ElastyleError, SkeletonMismatchError
+from elastyle.model.file import StyleModel
+from elastyle.steps.search import StyleWindows
+from elastyle.steps.whiten import LatentStats
+from elastyle.types import FloatArray, IntArray
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, eq=False)
+class StyleLibrary:
+    """Encoded style clips: names and mirrored flags (K,), clip_starts (K,) library frames, latents (N, Z)
+    end to end, and their pooled statistics."""
+
+    names: list[str]
+    mirrored: list[bool]
+    clip_starts: IntArray
+    latents: FloatArray
+    stats: LatentStats
+    _windows: dict[int, StyleWindows] = field(default_factory=dict)
+
+    @cached_property
+    def white(self) -> FloatArray:
+        """The library's latents (N, Z) whitened with its own pooled statistics."""
+        return self.stats.whiten(self.latents)
+
+    def windows(self, patch_frames: int) -> StyleWindows:
+        if patch_frames not in self._windows:
+            self._windows[patch_frames] = StyleWindows(self.white, self.clip_starts, patch_frames)
+        return self._windows[patch_frames]
+
+    def locate(self, library_frame: int) -> tuple[int, int]:
+        """(clip index, frame within that clip) of a library frame."""
+        clip = int(np.searchsorted(self.clip_starts, library_frame, side="right") - 1)
+        return clip, int(library_frame - self.clip_starts[clip])
+
+    @property
+    def longest_clip(self) -> int:
+        ends = np.append(self.clip_starts[1:], self.latents.shape[0])
+        return int(np.max(ends - self.clip_starts))
+
+    @staticmethod
+    def of_latents(
+        names: Sequence[str], mirrored: Sequence[bool], latents: Sequence[FloatArray]
+    ) -> StyleLibrary:
+        """A library from each clip's latents (T_k, Z)."""
+        starts = np.cumsum([0] + [z.shape[0] for z in latents[:-1]]).astype(np.int64)
+        return StyleLibrary(list(names), list(mirrored), starts, np.concatenate(latents), LatentStats.of(latents))
+
+
+def prepare_style(
+    model: StyleModel,
+    motions: Sequence[Motion],
+    names: Sequence[str] | None = None,
+    mirror_style: bool = True,
+) -> StyleLibrary:
+    """Encode a style library: every clip, plus its mirror when the skeleton allows."""
+    names = list(names) if names is not None else [f"style{i}" for i in range(len(motions))]
+    clips: list[tuple[str, bool, Motion]] = []
+    for name, motion in zip(names, motions):
+        model.check_clip(motion, name)
+        motion = motion.resample(model.fps)
+        clips.append((name, False, motion))
+        if mirror_style:
+            try:
+                clips.append((name, True, mirror(motion)))
+            except SkeletonMismatchError:
+                log.info("%s: no left/right pairs, style used without its mirror", name)
+    latents = [model.encode_motion(m)[0] for _, _, m in clips]
+    return StyleLibrary.of_latents([c[0] for c in clips], [c[1] for c in clips], latents)
+
+
+def as_library(
+    model: StyleModel,
+    style: Motion | Sequence[Motion] | StyleLibrary,
+    names: Sequence[str] | None,
+    mirror_style: bool,
+) -> StyleLibrary:
+    """A prepared library as it is; one clip or several clips encoded into one."""
+    if isinstance(style, StyleLibrary):
+        return style
+    motions = [style] if isinstance(style, Motion) else list(style)
+    if not motions:
+        raise ElastyleError("no style clips given")
+    return prepare_style(model, motions, names, mirror_style)

@@ -1,0 +1,87 @@
+"""One style's result as a function of content time: whiten, match, place, cross-fade and colour.
+
+docs/method.md, "Transfer". A style track holds, on a fine grid of content times c (G,), the coloured
+latents z(c) (G, Z) and the log playback rate log r(c) = log(L / L'(c)) (output frames per content frame)
+of one style library. Strength, transitions and blends are weights over tracks (`steps.timeline`).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from elastyle.core.resample import interpolate_rows
+from elastyle.errors import ClipTooShortError
+from elastyle.steps.config import TransferConfig
+from elastyle.steps.library import StyleLibrary
+from elastyle.steps.search import Patch, search_fixed, search_sequential
+from elastyle.steps.whiten import LatentStats, adain
+from elastyle.types import FloatArray
+
+MIN_PATCH_FRAMES = 4
+
+
+class StyleTrack(NamedTuple):
+    """latents (G, Z) coloured, on the content-time grid; log_rate (G,); the matched patches (empty for
+    the statistics-only methods) and their length L in frames."""
+
+    latents: FloatArray
+    log_rate: FloatArray
+    patches: list[Patch]
+    patch_frames: int
+
+
+def style_track(
+    content_latents: FloatArray, library: StyleLibrary, grid: FloatArray, config: TransferConfig, fps: float
+) -> StyleTrack:
+    """The track of one library for content latents (T, Z) on grid times (G,) in content frames."""
+    content_stats = LatentStats.of([content_latents])
+    if config.method == "wct":
+        coloured = library.stats.colour(content_stats.whiten(content_latents))
+        return StyleTrack(interpolate_rows(coloured, grid), np.zeros_like(grid), [], 0)
+    if config.method == "adain":
+        styled = adain(content_latents, [content_latents], [library.latents])
+        return StyleTrack(interpolate_rows(styled, grid), np.zeros_like(grid), [], 0)
+    patch_frames = min(max(int(round(config.patch_s * fps)), MIN_PATCH_FRAMES), library.longest_clip)
+    if patch_frames < MIN_PATCH_FRAMES:
+        raise ClipTooShortError(
+            f"style clips are at most {library.longest_clip} frames; patches need {MIN_PATCH_FRAMES}"
+        )
+    # whiten, then match: the elastic search over stretched content patches, in two half-shifted sequences
+    windows = library.windows(patch_frames)
+    white_content = content_stats.whiten(content_latents)
+    search = search_sequential if config.placement == "sequential" else search_fixed
+    patches, shifted = search(white_content, windows, config.source_lengths(patch_frames, fps))
+    # place and cross-fade: each grid time reads both sequences' style windows, weighted by a triangle
+    position_a, weight_a, log_rate = _patch_sample(grid, patches, patch_frames)
+    position_b, weight_b, _ = _patch_sample(grid, shifted, patch_frames)
+    white = (
+        weight_a[:, None] * interpolate_rows(library.white, position_a)
+        + weight_b[:, None] * interpolate_rows(library.white, position_b)
+    ) / (weight_a + weight_b)[:, None]
+    # colour with the style's statistics
+    return StyleTrack(library.stats.colour(white), log_rate, patches, patch_frames)
+
+
+def _patch_sample(
+    grid: FloatArray, patches: list[Patch], patch_frames: int
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """For each grid time (G,): library position, cross-fade weight and log rate of the covering patch.
+
+    Patch i covers content times [start_i - 0.5, start_i + frames_i - 0.5); patches are in content order
+    and do not overlap. Grid times no patch covers get zeros.
+    """
+    if not patches:
+        return np.zeros_like(grid), np.zeros_like(grid), np.zeros_like(grid)
+    starts, frames, style_starts = np.array(
+        [(p.content_start, p.content_frames, p.style_start) for p in patches], dtype=np.float64
+    ).T  # (P,) each
+    which = np.clip(np.searchsorted(starts - 0.5, grid, side="right") - 1, 0, len(patches) - 1)  # (G,)
+    phase = (grid - starts[which] + 0.5) / frames[which]  # in [0, 1) inside the patch
+    inside = (grid >= starts[which] - 0.5) & (grid < starts[which] + frames[which] - 0.5)
+    frame = phase * patch_frames - 0.5
+    position = np.where(inside, style_starts[which] + np.clip(frame, 0, patch_frames - 1), 0.0)
+    weight = np.where(inside, np.maximum(1 - np.abs(2 * phase - 1), 1e-3), 0.0)
+    log_rate = np.where(inside, np.log(patch_frames / frames[which]), 0.0)
+    return position, weight, log_rate
