@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 from elastyle.eval.reconstruction import reconstruction_report
-from elastyle.io.dataset import dataset_label, default_data_path, find_clips
+from elastyle.io.dataset import default_data_path, find_clips, labelled_clips
 from elastyle.model.file import load_model
 
 TARGETS = {"joint_error_cm": 1.5, "end_effector_error_cm": 3.0, "skating_ratio": 1.5, "jerk_ratio": 1.2}
@@ -27,11 +27,7 @@ def main() -> int:
         "--smooth-s", type=float, nargs="+", default=[0.0], help="decoder output low-pass sigma(s), s"
     )
     args = parser.parse_args()
-    clips = [
-        c
-        for c in find_clips([args.data], pattern=args.pattern)
-        if (label := dataset_label(c)) and label[2] % 5 == 0
-    ]
+    clips = [clip for clip, _ in labelled_clips(find_clips([args.data], pattern=args.pattern), held_out=True)]
     clips = clips[:: max(1, len(clips) // args.clips)]
     motions = [c.read()[0] for c in clips]
     print(f"{len(motions)} held-out clips matching {args.pattern!r}")

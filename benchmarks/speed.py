@@ -28,7 +28,8 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 from elastyle.core.motion import Motion  # noqa: E402
-from elastyle.io.bvh import bvh_text, parse_bvh  # noqa: E402
+from elastyle.io.bvh_read import parse_bvh  # noqa: E402
+from elastyle.io.bvh_write import bvh_text  # noqa: E402
 from elastyle.io.dataset import default_data_path, find_clips  # noqa: E402
 from elastyle.model.file import load_model  # noqa: E402
 from elastyle.pipeline import transfer  # noqa: E402

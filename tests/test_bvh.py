@@ -10,7 +10,8 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from elastyle import BvhError, Motion, read_bvh, write_bvh
-from elastyle.io.bvh import bvh_text, parse_bvh
+from elastyle.io.bvh_read import parse_bvh
+from elastyle.io.bvh_write import bvh_text
 from tests.conftest import THREE_CHANNEL_BVH
 
 
@@ -150,7 +151,7 @@ def test_dataset_clip_matches_dataset_description(walk_clip) -> None:  # type: i
 
 @pytest.mark.parametrize("order", ["XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX", "ZXZ"])
 def test_euler_conversions_match_scipy(order: str) -> None:
-    from elastyle.io.bvh import euler_to_rotvec, rotvec_to_euler
+    from elastyle.io.euler import euler_to_rotvec, rotvec_to_euler
 
     rng = np.random.default_rng(0)
     angles = rng.uniform(-180, 180, size=(400, 3))

@@ -9,9 +9,10 @@ from elastyle.core.body import centimetres_per_unit, find_limbs
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
 from elastyle.eval.metrics import foot_skating_cm_s, jerk
-from elastyle.io.bvh import parse_bvh
+from elastyle.io.bvh_read import parse_bvh
 from elastyle.io.dataset import ClipRef
-from elastyle.steps.cleanup import adjust_root_speed, clean_feet, detect_contacts, ground_level
+from elastyle.steps.cleanup import adjust_root_speed, clean_feet
+from elastyle.steps.contacts import detect_contacts, ground_level
 from elastyle.types import BoolArray, FloatArray
 from tests.conftest import THREE_CHANNEL_BVH, clip_named
 
@@ -270,7 +271,7 @@ def test_two_bone_legs_are_left_alone() -> None:
 
 
 def test_contact_hysteresis_matches_its_frame_by_frame_definition() -> None:
-    from elastyle.steps.cleanup import _hysteresis
+    from elastyle.steps.contacts import _hysteresis
 
     rng = np.random.default_rng(0)
     for _ in range(50):

@@ -10,7 +10,7 @@ import pytest
 
 from elastyle.core.motion import Motion
 from elastyle.errors import ElastyleError, OutputError
-from elastyle.io.bvh import read_bvh
+from elastyle.io.bvh_read import read_bvh
 from elastyle.io.dataset import ClipRef
 from elastyle.viewer.render import (
     PANEL_PX,

@@ -18,7 +18,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from elastyle import BvhError, read_bvh, write_bvh
-from elastyle.io.bvh import parse_bvh
+from elastyle.io.bvh_read import parse_bvh
 from elastyle.io.dataset import ClipRef
 from tests.conftest import THREE_CHANNEL_BVH, clip_named
 
@@ -268,7 +268,7 @@ _TEXT_CACHE: dict[str, str] = {}
 
 def _walk_text(clip: ClipRef) -> str:
     if clip.name not in _TEXT_CACHE:
-        from elastyle.io.bvh import bvh_text
+        from elastyle.io.bvh_write import bvh_text
 
         motion, layout = clip.read()
         _TEXT_CACHE[clip.name] = bvh_text(motion.slice(0, 20), layout)

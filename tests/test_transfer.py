@@ -164,7 +164,7 @@ def test_content_timing_keeps_the_content_clock(model, content: Motion, style_cl
 def test_cleanup_plants_the_feet(model, content: Motion, style_clip: Motion, timing: str) -> None:  # type: ignore[no-untyped-def]
     from elastyle.eval.metrics import foot_skating_cm_s
     from elastyle.eval.report import bone_length_error_cm
-    from elastyle.steps.cleanup import ground_level
+    from elastyle.steps.contacts import ground_level
 
     raw = transfer(content, style_clip, TransferConfig(timing=timing, cleanup=False), model=model).motion
     clean = transfer(content, style_clip, TransferConfig(timing=timing), model=model).motion

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from elastyle.errors import ElastyleError
-from elastyle.io.bvh import read_bvh
+from elastyle.io.bvh_read import read_bvh
 from elastyle.io.dataset import ClipRef
 from elastyle.viewer.app import build_payload, make_server, read_explain, server_url
 from tests.conftest import clip_named

@@ -20,7 +20,9 @@ from elastyle.errors import (
     OutputError,
     SkeletonMismatchError,
 )
-from elastyle.io.bvh import BvhLayout, read_bvh, write_bvh
+from elastyle.io.bvh_layout import BvhLayout
+from elastyle.io.bvh_read import read_bvh
+from elastyle.io.bvh_write import write_bvh
 from elastyle.io.dataset import find_clips
 from elastyle.model.file import load_model
 from elastyle.pipeline import TransferResult, transfer

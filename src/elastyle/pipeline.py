@@ -2,7 +2,7 @@
 
 Each step is one call into the module that owns it; docs/method.md describes each, with shapes and units.
 
-    read        io.bvh.read_bvh                          (the caller: clips in, `Motion`)
+    read        io.bvh_read.read_bvh                     (the caller: clips in, `Motion`)
     features    model.features.FeatureSpec.encode        rotations -> per-frame features (T, C)
     encode      model.file.StyleModel.encode_motion      features -> latents (T, Z)
     whiten      steps.whiten.LatentStats.whiten          content and style latents decorrelated
@@ -13,7 +13,7 @@ Each step is one call into the module that owns it; docs/method.md describes eac
     retime      steps.timeline                           strength and styles mixed; the output's time map
     decode      model.file.StyleModel.decode_latents     latents -> features -> `Motion`
     clean up    steps.cleanup.clean_feet                 feet planted by two-joint leg IK
-    write       io.bvh.write_bvh                         (the caller)
+    write       io.bvh_write.write_bvh                   (the caller)
 """
 
 from __future__ import annotations
@@ -27,8 +27,9 @@ from elastyle.core.motion import Motion
 from elastyle.core.resample import interpolate_rows
 from elastyle.errors import ClipTooShortError
 from elastyle.model.file import StyleModel, load_model
-from elastyle.steps.cleanup import adjust_root_speed, clean_feet, detect_contacts
+from elastyle.steps.cleanup import adjust_root_speed, clean_feet
 from elastyle.steps.config import TransferConfig
+from elastyle.steps.contacts import detect_contacts
 from elastyle.steps.explain import explain
 from elastyle.steps.library import StyleLibrary, as_library
 from elastyle.steps.schedule import Schedule
@@ -94,7 +95,9 @@ def transfer(
     features = model.decode_latents(on_output_frames(latents, grid, content_time), config.smooth_s)
     decoded = model.features.decode(features, root.sample(content_time), fps)
     if config.timing == "content":  # the style's manner on the content's clock, by the inverse map
-        decoded = decoded.sample(np.interp(np.arange(working.num_frames), content_time, np.arange(len(content_time))))
+        decoded = decoded.sample(
+            np.interp(np.arange(working.num_frames), content_time, np.arange(len(content_time)))
+        )
     # the content's own skeleton (its offsets and End Sites), so the output drops into the content's rig
     motion = Motion(content.skeleton, decoded.rotations, decoded.translations, fps)
     # clean up: plant the feet

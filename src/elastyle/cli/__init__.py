@@ -38,7 +38,7 @@ def _command_info(args: argparse.Namespace) -> int:
 
 def _command_convert(args: argparse.Namespace) -> int:
     from elastyle.core.mirror import mirror
-    from elastyle.io.bvh import write_bvh
+    from elastyle.io.bvh_write import write_bvh
     from elastyle.io.dataset import read_clip
     from elastyle.io.files import check_output_path
 

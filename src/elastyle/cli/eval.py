@@ -80,7 +80,7 @@ def _print_figures(figures: dict[str, float], as_json: bool) -> None:
 
 def run_demo(args: argparse.Namespace) -> int:
     from elastyle.eval.report import transfer_figures
-    from elastyle.io.bvh import write_bvh
+    from elastyle.io.bvh_write import write_bvh
     from elastyle.io.dataset import PUBLIC_DATASET_HINT, default_data_path, find_clips
     from elastyle.io.files import write_text_atomic
     from elastyle.model.file import load_model

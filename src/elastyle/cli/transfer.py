@@ -132,7 +132,7 @@ class _Job(NamedTuple):
 
 
 def _transfer_one(job: _Job, content_spec: str, target: Path) -> None:
-    from elastyle.io.bvh import write_bvh
+    from elastyle.io.bvh_write import write_bvh
     from elastyle.io.dataset import read_clip
     from elastyle.io.files import write_text_atomic
     from elastyle.pipeline import transfer

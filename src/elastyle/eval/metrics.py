@@ -11,7 +11,7 @@ from elastyle.types import BoolArray, FloatArray
 
 def foot_contacts(motion: Motion, positions: FloatArray | None = None) -> BoolArray:
     """(T, F) True where a foot is planted: low and slow, with hysteresis (`cleanup.detect_contacts`)."""
-    from elastyle.steps.cleanup import detect_contacts
+    from elastyle.steps.contacts import detect_contacts
 
     del positions
     return detect_contacts(motion)

@@ -13,14 +13,13 @@ from typing import Any
 
 import numpy as np
 
-from elastyle.eval.benchmark import Pair, benchmark_pairs
+from elastyle.core.motion import Motion
+from elastyle.eval.benchmark import benchmark_pairs, score_pairs
 from elastyle.eval.classify import RidgeClassifier, describe
-from elastyle.eval.report import transfer_figures
-from elastyle.io.dataset import dataset_label, find_clips
+from elastyle.io.dataset import ClipRef, DatasetLabel, dataset_label, find_clips, is_held_out, labelled_clips
+from elastyle.model.features import FeatureSpec
 from elastyle.model.file import StyleModel
-from elastyle.pipeline import transfer
 from elastyle.steps.config import TransferConfig
-from elastyle.steps.library import prepare_style
 
 log = logging.getLogger(__name__)
 
@@ -41,24 +40,40 @@ class Classifiers:
     content: RidgeClassifier
     style_accuracy: float
     content_accuracy: float
+    features: FeatureSpec
+    fps: float  # the model's frame rate, at which descriptors are taken
+
+    def recognised(self, output: Motion, style: ClipRef, content: ClipRef) -> tuple[bool, bool]:
+        """Whether `output` is classified as the style clip's style, and as the content clip's content."""
+        descriptor = describe(output.resample(self.fps), self.features)[None]
+        style_label, content_label = _label(style), _label(content)
+        return (
+            self.style.predict(descriptor)[0] == style_label.style,
+            self.content.predict(descriptor)[0] == content_label.content,
+        )
+
+
+def _label(clip: ClipRef) -> DatasetLabel:
+    label = dataset_label(clip)
+    if label is None:
+        raise ValueError(f"{clip.name}: not a dataset clip name")
+    return label
 
 
 def train_classifiers(data: str, model: StyleModel, per_class: int = 12) -> Classifiers:
     """Style classifier on walks (7 styles), content classifier on every content (10), both held-out tested."""
-    clips = [c for c in find_clips([data]) if dataset_label(c)]
-    groups: dict[tuple[str, str, bool], list[Any]] = {}
-    for clip in clips:
-        content, style, take = dataset_label(clip)  # type: ignore[misc]
-        groups.setdefault((content, style, take % 5 == 0), []).append(clip)
-    chosen = [c for group in groups.values() for c in group[:per_class]]
-    descriptors = {c.name: describe(c.read()[0].resample(model.fps), model.features) for c in chosen}
+    groups: dict[tuple[str, str, bool], list[tuple[ClipRef, DatasetLabel]]] = {}
+    for clip, label in labelled_clips(find_clips([data])):
+        groups.setdefault((label.content, label.style, is_held_out(clip)), []).append((clip, label))
+    chosen = [item for group in groups.values() for item in group[:per_class]]
+    descriptors = {c.name: describe(c.read()[0].resample(model.fps), model.features) for c, _ in chosen}
 
     def split(held_out: bool, walks_only: bool) -> tuple[np.ndarray, list[str], list[str]]:
-        rows = [c for c in chosen if (dataset_label(c)[2] % 5 == 0) == held_out]  # type: ignore[index]
+        rows = [(c, label) for c, label in chosen if is_held_out(c) == held_out]
         if walks_only:
-            rows = [c for c in rows if dataset_label(c)[0] == "walk"]  # type: ignore[index]
-        x = np.array([descriptors[c.name] for c in rows])
-        return x, [dataset_label(c)[1] for c in rows], [dataset_label(c)[0] for c in rows]  # type: ignore[index]
+            rows = [(c, label) for c, label in rows if label.content == "walk"]
+        x = np.array([descriptors[c.name] for c, _ in rows])
+        return x, [label.style for _, label in rows], [label.content for _, label in rows]
 
     x_walk, styles, _ = split(False, True)
     x_all, _, contents = split(False, False)
@@ -67,8 +82,9 @@ def train_classifiers(data: str, model: StyleModel, per_class: int = 12) -> Clas
     x_walk_test, styles_test, _ = split(True, True)
     x_all_test, _, contents_test = split(True, False)
     return Classifiers(
-        style, content, style.accuracy(x_walk_test, styles_test), content.accuracy(x_all_test, contents_test)
-    )
+        style, content, style.accuracy(x_walk_test, styles_test), content.accuracy(x_all_test, contents_test),
+        model.features, model.fps,
+    )  # fmt: skip
 
 
 def run_benchmark(data: str, model: StyleModel, max_pairs: int = 24) -> dict[str, Any]:
@@ -77,7 +93,7 @@ def run_benchmark(data: str, model: StyleModel, max_pairs: int = 24) -> dict[str
     rows = []
     for name, config in VARIANTS.items():
         log.info("benchmark: %s", name)
-        rows.append({"method": name, **_score(pairs, model, config, classifiers)})
+        rows.append({"method": name, **score_pairs(pairs, model, config, classifiers)})
     return {
         "pairs": [{"content": p.content.stem, "style": p.style.stem} for p in pairs],
         "classifier_held_out_accuracy": {
@@ -85,27 +101,6 @@ def run_benchmark(data: str, model: StyleModel, max_pairs: int = 24) -> dict[str
             "content": classifiers.content_accuracy,
         },
         "rows": rows,
-    }
-
-
-def _score(
-    pairs: list[Pair], model: StyleModel, config: TransferConfig, classifiers: Classifiers
-) -> dict[str, float]:
-    figures, style_hits, content_hits = [], [], []
-    for pair in pairs:
-        library = prepare_style(model, [pair.style_motion], [pair.style.name], config.mirror_style)
-        output = transfer(pair.content_motion, library, config, model=model).motion
-        figures.append(transfer_figures(output, pair.content_motion, pair.style_motion))
-        descriptor = describe(output.resample(model.fps), model.features)[None]
-        style_hits.append(classifiers.style.predict(descriptor)[0] == dataset_label(pair.style)[1])  # type: ignore[index]
-        content_hits.append(classifiers.content.predict(descriptor)[0] == dataset_label(pair.content)[0])  # type: ignore[index]
-    return {
-        "timing_error_median": float(np.median([f["timing_error"] for f in figures])),
-        "skating_cm_s": float(np.median([f["skating_output_cm_s"] for f in figures])),
-        "jitter_vs_content": float(np.median([f["jitter_vs_content"] for f in figures])),
-        "bone_length_error_cm": float(np.max([f["bone_length_error_cm"] for f in figures])),
-        "style_accuracy": float(np.mean(style_hits)),
-        "content_accuracy": float(np.mean(content_hits)),
     }
 
 

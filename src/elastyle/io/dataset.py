@@ -18,7 +18,8 @@ from typing import NamedTuple
 
 from elastyle.core.motion import Motion
 from elastyle.errors import BvhError, DatasetError
-from elastyle.io.bvh import BvhLayout, parse_bvh, read_bvh
+from elastyle.io.bvh_layout import BvhLayout
+from elastyle.io.bvh_read import parse_bvh, read_bvh
 
 DATA_ENVIRONMENT_VARIABLE = "ELASTYLE_DATA"
 PUBLIC_DATASET_HINT = (
@@ -133,12 +134,30 @@ def read_clip(spec: str | os.PathLike[str]) -> tuple[Motion, BvhLayout]:
 _BANDAI_NAME = re.compile(r"dataset-\d+_(?P<content>[a-z-]+)_(?P<style>[a-z]+)_(?P<take>\d+)$")
 
 
-def dataset_label(clip: ClipRef) -> tuple[str, str, int] | None:
-    """(content, style, take) from a Bandai Namco dataset file name, or None for other names."""
+class DatasetLabel(NamedTuple):
+    """What a Bandai Namco dataset file name says: content type, style and take number."""
+
+    content: str
+    style: str
+    take: int
+
+
+def dataset_label(clip: ClipRef) -> DatasetLabel | None:
+    """The label of a Bandai Namco dataset file name, or None for other names."""
     match = _BANDAI_NAME.match(clip.stem)
     if match is None:
         return None
-    return match["content"], match["style"], int(match["take"])
+    return DatasetLabel(match["content"], match["style"], int(match["take"]))
+
+
+def labelled_clips(
+    clips: Iterable[ClipRef], held_out: bool | None = None
+) -> list[tuple[ClipRef, DatasetLabel]]:
+    """The clips that carry a dataset label, with it; only held-out (or only training) takes if asked."""
+    pairs = [(clip, label) for clip in clips if (label := dataset_label(clip)) is not None]
+    if held_out is None:
+        return pairs
+    return [(clip, label) for clip, label in pairs if is_held_out(clip) == held_out]
 
 
 HOLDOUT_EVERY = 5  # dataset takes numbered % 5 == 0 are held out: never trained on, used for every benchmark
@@ -149,5 +168,5 @@ def is_held_out(clip: ClipRef, every: int = HOLDOUT_EVERY) -> bool:
     names by a stable hash of the file name."""
     label = dataset_label(clip)
     if label is not None:
-        return label[2] % every == 0
+        return label.take % every == 0
     return zlib.crc32(Path(clip.name).name.encode()) % every == 0

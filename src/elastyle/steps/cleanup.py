@@ -1,86 +1,21 @@
-"""Foot contact cleanup: find planted feet, pin them with two-joint leg IK, and let the root follow the stride.
+"""Foot clean-up: pin planted feet with two-joint leg IK, and let the root follow the stride.
 
-Axes +Y up; lengths stay in the file's unit. Thresholds are fractions of the leg length (hip to ankle at
-rest, per second for speeds) above the clip's own ground level (a low percentile of each foot joint's
-height), so metres, centimetres and inches behave alike.
+Contacts come from `steps.contacts`; the IK from `steps.leg_ik`. Axes +Y up; lengths in the file's unit.
 """
 
 from __future__ import annotations
-
-from typing import Final
 
 import numpy as np
 
 from elastyle.core.body import Limbs, find_limbs, leg_length
 from elastyle.core.motion import Motion
-from elastyle.core.rotations import from_matrix, lengths, to_matrix
-from elastyle.core.skeleton import Skeleton
+from elastyle.core.rotations import lengths
+from elastyle.steps.contacts import detect_contacts, ground_level, mask_runs, pivots
+from elastyle.steps.leg_ik import is_below, leg_ik
 from elastyle.types import BoolArray, FloatArray, IntArray
 
-GROUND_PERCENTILE = 5.0  # a foot joint's ground level: this percentile of its heights over the clip
-# the nearest sample to that percentile: numpy's interpolating method costs a 30 ms import (numpy.ma) on
-# its first call in a process, a tenth of a command-line transfer
-PERCENTILE_METHOD: Final = "nearest"
-ENTER_HEIGHT_OF_LEG = 0.03  # a toe or ankle this close to its ground level (2.4 cm on an 80 cm leg) ...
-ENTER_SPEED_LEGS_S = 0.5  # ... and slower than this (40 cm/s) starts a contact
-EXIT_HEIGHT_OF_LEG = 0.06  # the contact lasts until both joints are higher than this ...
-EXIT_SPEED_LEGS_S = 1.0  # ... or faster than this (80 cm/s)
-MIN_CONTACT_S = 0.05  # shorter contacts are dropped and shorter gaps between contacts are filled
 BRIDGE_GAP_S = 0.6  # a foot's gaps between contacts up to this long (a step's swing) are bridged directly
 SOFT_REACH = 0.995  # IK straightens a knee up to this fraction of the leg's reach before lowering the pelvis
-
-
-def ground_level(motion: Motion, positions: FloatArray | None = None) -> float:
-    """Height (file units) of the toes' ground level: the 5th percentile of toe heights over all feet."""
-    toes = find_limbs(motion.skeleton).toes
-    positions = motion.positions(toes) if positions is None else positions
-    return float(np.percentile(positions[:, toes, 1], GROUND_PERCENTILE, method=PERCENTILE_METHOD))
-
-
-def detect_contacts(motion: Motion, positions: FloatArray | None = None) -> BoolArray:
-    """(T, F) True where foot f is planted, F = len(find_limbs(skeleton).toes).
-
-    positions: (T, J, 3) the clip's world positions when already known (at least toes and ankles).
-    A foot enters contact when its toe or its ankle is both near its ground level and slow horizontally,
-    and leaves when neither is (looser thresholds: hysteresis). Contacts and gaps shorter than
-    `MIN_CONTACT_S` are removed.
-    """
-    limbs = find_limbs(motion.skeleton)
-    if len(limbs.toes) == 0:
-        return np.zeros((motion.num_frames, 0), dtype=bool)
-    if positions is None:
-        positions = motion.positions(limbs.feet)  # (T, J, 3), the legs only
-    leg = leg_length(motion.skeleton, limbs)
-    joints = np.stack([limbs.toes, limbs.ankles])  # (2, F) toe and ankle of each foot
-    heights = positions[:, joints, 1]  # (T, 2, F)
-    heights = heights - np.percentile(
-        heights, GROUND_PERCENTILE, axis=(0, 2), keepdims=True, method=PERCENTILE_METHOD
-    )
-    horizontal = positions[:, joints][..., [0, 2]]  # (T, 2, F, 2)
-    velocity = np.gradient(horizontal, axis=0) * motion.fps if motion.num_frames > 1 else 0 * horizontal
-    speed_legs_s = lengths(velocity) / leg  # (T, 2, F)
-    enter = np.any((heights < ENTER_HEIGHT_OF_LEG * leg) & (speed_legs_s < ENTER_SPEED_LEGS_S), axis=1)
-    stay = np.any((heights < EXIT_HEIGHT_OF_LEG * leg) & (speed_legs_s < EXIT_SPEED_LEGS_S), axis=1)
-    contacts = _hysteresis(enter, stay)  # (T, F)
-    min_frames = max(1, int(np.ceil(MIN_CONTACT_S * motion.fps)))
-    for foot in range(contacts.shape[1]):
-        for start, stop in _runs(~contacts[:, foot]):  # fill short gaps between two contacts
-            if 0 < start and stop < motion.num_frames and stop - start < min_frames:
-                contacts[start:stop, foot] = True
-        for start, stop in _runs(contacts[:, foot]):
-            if stop - start < min_frames:
-                contacts[start:stop, foot] = False
-    return contacts
-
-
-def _hysteresis(enter: BoolArray, stay: BoolArray) -> BoolArray:
-    """(T, F) on from a frame where `enter` holds for as long as `stay` holds after it:
-    on[t] = enter[t] or (on[t-1] and stay[t]), i.e. the last enter frame is no earlier than the last
-    frame where stay fails."""
-    frames = np.arange(enter.shape[0])[:, None]  # (T, 1)
-    last_enter = np.maximum.accumulate(np.where(enter, frames, -1), axis=0)
-    last_break = np.maximum.accumulate(np.where(stay, -1, frames), axis=0)
-    return (last_enter >= 0) & (last_enter >= last_break)
 
 
 def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float = 0.15) -> Motion:
@@ -104,7 +39,7 @@ def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float
     ramp_frames = blend_s * motion.fps
     bridge_frames = max(BRIDGE_GAP_S * motion.fps, 2 * ramp_frames)
     # 1. ankle targets: the pinned contact point's correction moves the whole foot, then lift to the ground
-    points, weights = _pivots(positions, limbs, leg)  # (T, F, 2, 3), (T, F, 2)
+    points, weights = pivots(positions, limbs, leg)  # (T, F, 2, 3), (T, F, 2)
     targets = positions[:, limbs.ankles].copy()  # (T, F, 3)
     for foot in range(len(limbs.toes)):
         targets[:, foot] += _pin_corrections(
@@ -116,7 +51,7 @@ def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float
     knees = skeleton.parents[limbs.ankles]
     chains = np.stack([skeleton.parents[knees], knees, limbs.ankles], axis=1)  # (F, 3) upper leg, knee, ankle
     # the upper leg must hang below the leg's root: a two-bone leg off the pelvis has no knee to bend
-    legs = np.array([_is_below(skeleton, int(chain[0]), int(hip)) for chain, hip in zip(chains, limbs.hips)])
+    legs = np.array([is_below(skeleton, int(chain[0]), int(hip)) for chain, hip in zip(chains, limbs.hips)])
     rotations, translations = motion.rotations.copy(), motion.translations.copy()
     lowering = _pelvis_lowering(positions, chains[legs], targets[:, legs], ramp_frames)  # (T,)
     if np.any(lowering > 0):
@@ -124,7 +59,7 @@ def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float
         shift[:, 1] = -lowering
         translations = _shift_pelvis(motion, world_rotations, shift)
         carried = [
-            j for j in skeleton.with_ancestors(limbs.feet).tolist() if _is_below(skeleton, j, skeleton.pelvis)
+            j for j in skeleton.with_ancestors(limbs.feet).tolist() if is_below(skeleton, j, skeleton.pelvis)
         ]
         positions = positions.copy()
         positions[:, carried] += shift[:, None]
@@ -133,7 +68,7 @@ def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float
     moved = lengths(targets[:, legs] - positions[:, chains[:, 2]]) > 1e-9 * leg  # (T, F_legs)
     if np.any(moved):
         parents = skeleton.parents[chains[:, 0]]
-        local = _leg_ik(world_rotations, positions, parents, chains, targets[:, legs])  # (T, F_legs, 3, 3)
+        local = leg_ik(world_rotations, positions, parents, chains, targets[:, legs])  # (T, F_legs, 3, 3)
         frames, feet = np.nonzero(moved)
         rotations[frames[:, None], chains[feet]] = local[frames, feet]
     return Motion(skeleton, rotations, translations, motion.fps)
@@ -151,7 +86,7 @@ def adjust_root_speed(motion: Motion, contacts: BoolArray, smooth_s: float = 0.2
     if motion.num_frames < 2 or contacts.shape[1] == 0:
         return Motion(motion.skeleton, motion.rotations.copy(), motion.translations.copy(), motion.fps)
     world_rotations, positions = motion.world(limbs.feet)
-    points, weights = _pivots(positions, limbs, leg_length(motion.skeleton, limbs))  # (T, F, 2, 3), (T, F, 2)
+    points, weights = pivots(positions, limbs, leg_length(motion.skeleton, limbs))  # (T, F, 2, 3), (T, F, 2)
     planted = (contacts[1:] & contacts[:-1])[..., None] * 0.5 * (weights[1:] + weights[:-1])  # (T-1, F, 2)
     steps = np.sum(planted[..., None] * np.diff(points, axis=0), axis=(1, 2))  # (T-1, 3)
     drift = steps / np.maximum(planted.sum(axis=(1, 2)), 1.0)[:, None]  # (T-1, 3) mean planted-foot step
@@ -180,42 +115,6 @@ def _shift_pelvis(motion: Motion, world_rotations: FloatArray, shift: FloatArray
     return translations
 
 
-def _is_below(skeleton: Skeleton, joint: int, ancestor: int) -> bool:
-    while joint > ancestor:
-        joint = int(skeleton.parents[joint])
-    return joint == ancestor
-
-
-def _runs(mask: BoolArray) -> list[tuple[int, int]]:
-    """[start, stop) frame ranges where a (T,) mask is True."""
-    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()))
-
-
-def _pivots(positions: FloatArray, limbs: Limbs, leg: float) -> tuple[FloatArray, FloatArray]:
-    """Toe and ankle positions (T, F, 2, 3) of each foot and how firmly (T, F, 2) each is held in place.
-
-    The toe is what skating metrics watch and it stays put from foot-flat to toe-off; only at heel strike
-    (toe still coming down, higher than the ankle above their ground levels) does the ankle carry the
-    weight. The hold fades from 1 to 0 as that pivot rises from half the entry height to the exit height,
-    so a foot lifting off leaves gently instead of being pinned until the contact ends.
-    """
-    points = np.stack([positions[:, limbs.toes], positions[:, limbs.ankles]], axis=2)  # (T, F, 2, 3)
-    heights = points[..., 1] - np.percentile(
-        points[..., 1], GROUND_PERCENTILE, axis=(0, 1), method=PERCENTILE_METHOD
-    )  # (T, F, 2)
-    toe_weight = _smoothstep(1.0 + (heights[..., 1] - heights[..., 0]) / (ENTER_HEIGHT_OF_LEG * leg))
-    weights = np.stack([toe_weight, 1 - toe_weight], axis=-1)  # (T, F, 2), sums to 1
-    pivot_height = np.sum(weights * heights, axis=-1)  # (T, F)
-    low, high = 0.5 * ENTER_HEIGHT_OF_LEG * leg, EXIT_HEIGHT_OF_LEG * leg
-    return points, weights * _smoothstep((high - pivot_height) / (high - low))[..., None]
-
-
-def _smoothstep(x: FloatArray) -> FloatArray:
-    x = np.clip(x, 0.0, 1.0)
-    return x * x * (3 - 2 * x)
-
-
 def _pin_corrections(
     points: FloatArray, weights: FloatArray, contact: BoolArray, ramp_frames: float, bridge_frames: float
 ) -> FloatArray:
@@ -228,7 +127,7 @@ def _pin_corrections(
     """
     num_frames = points.shape[0]
     corrections = np.zeros((num_frames, 3))
-    runs = np.array(_runs(contact), dtype=np.int64).reshape(-1, 2)  # (R, 2) [start, stop) of each contact
+    runs = np.array(mask_runs(contact), dtype=np.int64).reshape(-1, 2)  # (R, 2) [start, stop) of each contact
     if len(runs) == 0:
         return corrections
     starts, stops = runs[:, 0], runs[:, 1]
@@ -323,69 +222,3 @@ def _pelvis_lowering(
     padded = np.pad(need, radius, mode="edge")
     dilated = np.lib.stride_tricks.sliding_window_view(padded, 2 * radius + 1).max(axis=1)
     return np.maximum(_smooth(dilated, radius), need)
-
-
-def _angle(u: FloatArray, v: FloatArray) -> FloatArray:
-    """Angles (...) in radians between vectors (..., 3)."""
-    cosine = np.sum(u * v, -1) / np.maximum(lengths(u) * lengths(v), 1e-300)
-    return np.arccos(np.clip(cosine, -1.0, 1.0))
-
-
-def _leg_ik(
-    world_rotations: FloatArray,
-    positions: FloatArray,
-    parents: IntArray,
-    chains: IntArray,
-    targets: FloatArray,
-) -> FloatArray:
-    """Analytic two-joint IK of F legs at once: local exp maps (T, F, 3, 3) of upper leg, knee and ankle
-    putting each ankle on its target.
-
-    world_rotations: (T, J, 3, 3); positions: (T, J, 3); parents: (F,) each upper leg's parent (-1: none);
-    chains: (F, 3) upper leg, knee, ankle; targets: (T, F, 3).
-    The knee bends in its own plane (normal (ankle - hip) x (knee - hip); a straight leg borrows the clip's
-    mean normal in the upper leg's frame) to get the hip-target distance by the law of cosines, the leg
-    turns back in that plane onto its old hip-ankle line, then swings that line onto the target (minimal
-    arc). The ankle keeps its world rotation, so the foot keeps its orientation.
-    """
-    upper_world, knee_world, ankle_world = (
-        world_rotations[:, chains[:, i]] for i in range(3)
-    )  # (T, F, 3, 3)
-    hip, knee, ankle = (positions[:, chains[:, i]] for i in range(3))  # (T, F, 3)
-    normal = np.cross(ankle - hip, knee - hip)  # (T, F, 3)
-    size = lengths(normal)
-    bent = size > 1e-6 * lengths(ankle - hip) * lengths(knee - hip)  # (T, F)
-    normal = normal / np.maximum(size, 1e-300)[..., None]
-    local_normal = np.einsum("tfji,tfj->tfi", upper_world, normal)  # (T, F, 3) in the upper leg's frame
-    across = np.cross(np.einsum("fj,fji->fi", (knee - hip)[0], upper_world[0]), [1e-3, 1e-2, 1.0])  # (F, 3)
-    mean_normal = np.where(
-        np.any(bent, axis=0)[:, None], np.sum(local_normal * bent[..., None], axis=0), across
-    )
-    mean_normal = mean_normal / np.maximum(lengths(mean_normal, keepdims=True), 1e-300)  # (F, 3)
-    axes = np.where(bent[..., None], normal, np.einsum("tfij,fj->tfi", upper_world, mean_normal))  # (T, F, 3)
-
-    thigh, shin = lengths(knee - hip), lengths(ankle - knee)  # (T, F)
-    eps = 1e-9 * (thigh + shin)
-    distance = np.clip(lengths(targets - hip), np.abs(thigh - shin) + eps, thigh + shin - eps)
-    hip_angle = np.arccos(np.clip((thigh**2 + distance**2 - shin**2) / (2 * thigh * distance), -1, 1))
-    knee_angle = np.arccos(np.clip((thigh**2 + shin**2 - distance**2) / (2 * thigh * shin), -1, 1))
-    cross = np.cross(ankle - hip, targets - hip)
-    swing_axis = cross / np.maximum(lengths(cross), 1e-300)[..., None]
-    # the knee's bend, the hip's turn back onto the hip-ankle line, and the swing onto the target
-    bend, turn, swing = to_matrix(
-        np.stack(
-            [
-                axes * (knee_angle - _angle(hip - knee, ankle - knee))[..., None],
-                axes * (hip_angle - _angle(ankle - hip, knee - hip))[..., None],
-                swing_axis * _angle(ankle - hip, targets - hip)[..., None],
-            ]
-        )
-    )  # (T, F, 3, 3) each
-    new_upper = swing @ turn @ upper_world
-    new_knee = new_upper @ np.swapaxes(upper_world, -1, -2) @ bend @ knee_world
-    parent_world = np.where(
-        (parents >= 0)[:, None, None], world_rotations[:, np.maximum(parents, 0)], np.eye(3)
-    )  # (T, F, 3, 3)
-    local = [np.swapaxes(parent_world, -1, -2) @ new_upper, np.swapaxes(new_upper, -1, -2) @ new_knee]
-    local.append(np.swapaxes(new_knee, -1, -2) @ ankle_world)
-    return from_matrix(np.stack(local, axis=2))

@@ -72,7 +72,8 @@ class TransferConfig:
     decode: str = option("plain", "plain: the report's decoding of the styled latents", DECODINGS)
     cleanup: bool = option(True, "plant the feet: contacts pinned by two-joint leg IK")
     adjust_root: bool = option(
-        False, "move the root with the stance foot before the clean-up (the path may drift from the content's)"
+        False,
+        "move the root with the stance foot before the clean-up (the path may drift from the content's)",
     )
 
     def __post_init__(self) -> None:

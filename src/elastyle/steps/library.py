@@ -62,7 +62,9 @@ class StyleLibrary:
     ) -> StyleLibrary:
         """A library from each clip's latents (T_k, Z)."""
         starts = np.cumsum([0] + [z.shape[0] for z in latents[:-1]]).astype(np.int64)
-        return StyleLibrary(list(names), list(mirrored), starts, np.concatenate(latents), LatentStats.of(latents))
+        return StyleLibrary(
+            list(names), list(mirrored), starts, np.concatenate(latents), LatentStats.of(latents)
+        )
 
 
 def prepare_style(

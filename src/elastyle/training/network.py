@@ -43,9 +43,13 @@ class TorchAutoencoder(nn.Module):
     def decode(self, z: torch.Tensor) -> torch.Tensor:
         if not self.config.tied:
             return self.deconv1(functional.relu(self.deconv2(z)))
-        hidden = functional.relu(functional.conv_transpose1d(z - self.conv2.bias[None, :, None], self.conv2.weight))
+        hidden = functional.relu(
+            functional.conv_transpose1d(z - _bias(self.conv2)[None, :, None], self.conv2.weight)
+        )
         return functional.conv_transpose1d(
-            hidden - self.conv1.bias[None, :, None], self.conv1.weight, padding=self.config.kernel_frames // 2
+            hidden - _bias(self.conv1)[None, :, None],
+            self.conv1.weight,
+            padding=self.config.kernel_frames // 2,
         )
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
@@ -59,14 +63,20 @@ class TorchAutoencoder(nn.Module):
         if not self.config.tied:
             decoder = {
                 "deconv2": array(self.deconv2.weight),
-                "debias2": array(self.deconv2.bias),
+                "debias2": array(_bias(self.deconv2)),
                 "deconv1": array(self.deconv1.weight),
-                "debias1": array(self.deconv1.bias),
+                "debias1": array(_bias(self.deconv1)),
             }
         return AutoencoderWeights(
-            array(self.conv1.weight), array(self.conv1.bias), array(self.conv2.weight), array(self.conv2.bias),
+            array(self.conv1.weight), array(_bias(self.conv1)), array(self.conv2.weight), array(_bias(self.conv2)),
             **decoder,
         )  # fmt: skip
+
+
+def _bias(layer: nn.Conv1d | nn.ConvTranspose1d) -> torch.Tensor:
+    """A layer's bias (every layer here has one)."""
+    assert layer.bias is not None
+    return layer.bias
 
 
 def quat_multiply(left: torch.Tensor, right: torch.Tensor) -> torch.Tensor:

@@ -1,0 +1,54 @@
+"""The layout of a BVH file beyond its motion: each joint's channels in file order, and the frame time."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+from elastyle.core.skeleton import Skeleton
+
+ROTATION_CHANNELS = {"Xrotation": "X", "Yrotation": "Y", "Zrotation": "Z"}
+POSITION_CHANNELS = {"Xposition": 0, "Yposition": 1, "Zposition": 2}
+
+
+class BvhLayout(NamedTuple):
+    """What a BVH file needs beyond the motion itself, so `write_bvh` reproduces its layout.
+
+    channels: per joint (J,), the channel names in file order (3 or 6 of them, or none).
+    frame_time_s: the file's frame time, seconds.
+    """
+
+    channels: tuple[tuple[str, ...], ...]
+    frame_time_s: float
+
+    @staticmethod
+    def default(skeleton: Skeleton, fps: float) -> BvhLayout:
+        """A 6-channel root and 3-channel ZXY joints, for clips that came from no file."""
+        root = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
+        joint = ("Zrotation", "Xrotation", "Yrotation")
+        channels = tuple(root if j == 0 else joint for j in range(skeleton.num_joints))
+        return BvhLayout(channels, 1.0 / fps)
+
+
+def channel_columns(
+    channels: list[tuple[str, ...]] | tuple[tuple[str, ...], ...],
+) -> tuple[list[tuple[int, int, int]], dict[str, tuple[list[int], list[list[int]]]]]:
+    """Where each joint's channels sit in a frame row: position channels as (joint, axis, column), and the
+    rotation channels grouped by Euler order as {order: (joints, their 3 columns each)}."""
+    positions: list[tuple[int, int, int]] = []
+    by_order: dict[str, tuple[list[int], list[list[int]]]] = {}
+    column = 0
+    for joint, joint_channels in enumerate(channels):
+        rotation_columns: list[int] = []
+        order = ""
+        for channel in joint_channels:
+            if channel in POSITION_CHANNELS:
+                positions.append((joint, POSITION_CHANNELS[channel], column))
+            else:
+                order += ROTATION_CHANNELS[channel]
+                rotation_columns.append(column)
+            column += 1
+        if order:
+            joints, columns = by_order.setdefault(order, ([], []))
+            joints.append(joint)
+            columns.append(rotation_columns)
+    return positions, by_order

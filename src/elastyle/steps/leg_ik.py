@@ -1,0 +1,82 @@
+"""Analytic two-joint leg IK: hip and knee turned so the ankle reaches a target, the foot's world
+orientation kept."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from elastyle.core.rotations import from_matrix, lengths, to_matrix
+from elastyle.core.skeleton import Skeleton
+from elastyle.types import FloatArray, IntArray
+
+
+def is_below(skeleton: Skeleton, joint: int, ancestor: int) -> bool:
+    while joint > ancestor:
+        joint = int(skeleton.parents[joint])
+    return joint == ancestor
+
+
+def _angle(u: FloatArray, v: FloatArray) -> FloatArray:
+    """Angles (...) in radians between vectors (..., 3)."""
+    cosine = np.sum(u * v, -1) / np.maximum(lengths(u) * lengths(v), 1e-300)
+    return np.arccos(np.clip(cosine, -1.0, 1.0))
+
+
+def leg_ik(
+    world_rotations: FloatArray,
+    positions: FloatArray,
+    parents: IntArray,
+    chains: IntArray,
+    targets: FloatArray,
+) -> FloatArray:
+    """Analytic two-joint IK of F legs at once: local exp maps (T, F, 3, 3) of upper leg, knee and ankle
+    putting each ankle on its target.
+
+    world_rotations: (T, J, 3, 3); positions: (T, J, 3); parents: (F,) each upper leg's parent (-1: none);
+    chains: (F, 3) upper leg, knee, ankle; targets: (T, F, 3).
+    The knee bends in its own plane (normal (ankle - hip) x (knee - hip); a straight leg borrows the clip's
+    mean normal in the upper leg's frame) to get the hip-target distance by the law of cosines, the leg
+    turns back in that plane onto its old hip-ankle line, then swings that line onto the target (minimal
+    arc). The ankle keeps its world rotation, so the foot keeps its orientation.
+    """
+    upper_world, knee_world, ankle_world = (
+        world_rotations[:, chains[:, i]] for i in range(3)
+    )  # (T, F, 3, 3)
+    hip, knee, ankle = (positions[:, chains[:, i]] for i in range(3))  # (T, F, 3)
+    normal = np.cross(ankle - hip, knee - hip)  # (T, F, 3)
+    size = lengths(normal)
+    bent = size > 1e-6 * lengths(ankle - hip) * lengths(knee - hip)  # (T, F)
+    normal = normal / np.maximum(size, 1e-300)[..., None]
+    local_normal = np.einsum("tfji,tfj->tfi", upper_world, normal)  # (T, F, 3) in the upper leg's frame
+    across = np.cross(np.einsum("fj,fji->fi", (knee - hip)[0], upper_world[0]), [1e-3, 1e-2, 1.0])  # (F, 3)
+    mean_normal = np.where(
+        np.any(bent, axis=0)[:, None], np.sum(local_normal * bent[..., None], axis=0), across
+    )
+    mean_normal = mean_normal / np.maximum(lengths(mean_normal, keepdims=True), 1e-300)  # (F, 3)
+    axes = np.where(bent[..., None], normal, np.einsum("tfij,fj->tfi", upper_world, mean_normal))  # (T, F, 3)
+
+    thigh, shin = lengths(knee - hip), lengths(ankle - knee)  # (T, F)
+    eps = 1e-9 * (thigh + shin)
+    distance = np.clip(lengths(targets - hip), np.abs(thigh - shin) + eps, thigh + shin - eps)
+    hip_angle = np.arccos(np.clip((thigh**2 + distance**2 - shin**2) / (2 * thigh * distance), -1, 1))
+    knee_angle = np.arccos(np.clip((thigh**2 + shin**2 - distance**2) / (2 * thigh * shin), -1, 1))
+    cross = np.cross(ankle - hip, targets - hip)
+    swing_axis = cross / np.maximum(lengths(cross), 1e-300)[..., None]
+    # the knee's bend, the hip's turn back onto the hip-ankle line, and the swing onto the target
+    bend, turn, swing = to_matrix(
+        np.stack(
+            [
+                axes * (knee_angle - _angle(hip - knee, ankle - knee))[..., None],
+                axes * (hip_angle - _angle(ankle - hip, knee - hip))[..., None],
+                swing_axis * _angle(ankle - hip, targets - hip)[..., None],
+            ]
+        )
+    )  # (T, F, 3, 3) each
+    new_upper = swing @ turn @ upper_world
+    new_knee = new_upper @ np.swapaxes(upper_world, -1, -2) @ bend @ knee_world
+    parent_world = np.where(
+        (parents >= 0)[:, None, None], world_rotations[:, np.maximum(parents, 0)], np.eye(3)
+    )  # (T, F, 3, 3)
+    local = [np.swapaxes(parent_world, -1, -2) @ new_upper, np.swapaxes(new_upper, -1, -2) @ new_knee]
+    local.append(np.swapaxes(new_knee, -1, -2) @ ankle_world)
+    return from_matrix(np.stack(local, axis=2))
