@@ -30,18 +30,13 @@ def pelvis_forward_local(skeleton: Skeleton) -> FloatArray:
     centre = [c for c in children if partner[c] == c]
     if not sided or not centre:
         return np.array([0.0, 0.0, 1.0])
-    left = next((c for c in sided if _is_left(skeleton.names[c])), sided[0])
+    left = next((c for c in sided if skeleton.sides()[c] > 0), sided[0])
     lateral = skeleton.offsets[left] - skeleton.offsets[partner[left]]
     up = skeleton.offsets[centre[0]]
     up = up - lateral * (up @ lateral) / max(lateral @ lateral, 1e-12)
     forward = np.cross(lateral, up)
     norm = np.linalg.norm(forward)
     return forward / norm if norm > 1e-9 else np.array([0.0, 0.0, 1.0])
-
-
-def _is_left(name: str) -> bool:
-    lower = name.lower()
-    return lower.endswith(("_l", ".l")) or lower.startswith(("l_", "l.")) or "left" in lower
 
 
 def heading_yaw(pelvis_world_rotations: FloatArray, forward_local: FloatArray) -> FloatArray:

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from elastyle.core.resample import interpolate_rows
 from elastyle.core.rotations import slerp_resample
 from elastyle.core.skeleton import Skeleton, forward_kinematics
 from elastyle.types import FloatArray, IntArray
@@ -65,10 +66,7 @@ class Motion:
     def sample(self, frame_times: FloatArray, fps: float | None = None) -> Motion:
         """The clip at fractional frame indices (N,): slerp for rotations, linear for translations."""
         frame_times = np.clip(np.asarray(frame_times, dtype=np.float64), 0.0, self.num_frames - 1)
-        lower = np.floor(frame_times).astype(np.int64)
-        upper = np.minimum(lower + 1, self.num_frames - 1)
-        weight = (frame_times - lower)[:, None, None]  # (N, 1, 1)
-        translations = (1 - weight) * self.translations[lower] + weight * self.translations[upper]
+        translations = interpolate_rows(self.translations, frame_times)
         rotations = slerp_resample(self.rotations, frame_times)
         return Motion(self.skeleton, rotations, translations, self.fps if fps is None else fps)
 

@@ -19,7 +19,8 @@ ArrayT = TypeVar("ArrayT", bound=AnyFloatArray)
 def bracket(positions: FloatArray, length: int) -> tuple[np.ndarray, np.ndarray, FloatArray]:
     """For fractional positions (G,) on an axis of `length` rows: lower and upper row indices (G,) and the
     upper row's weight (G,), positions clamped to [0, length - 1] (values held past the ends)."""
-    positions = np.clip(np.asarray(positions, dtype=np.float64), 0.0, length - 1)
+    # np.minimum / np.maximum: np.clip costs more on arrays this small
+    positions = np.minimum(np.maximum(np.asarray(positions, dtype=np.float64), 0.0), length - 1)
     lower = np.floor(positions).astype(np.int64)
     upper = np.minimum(lower + 1, length - 1)
     return lower, upper, positions - lower

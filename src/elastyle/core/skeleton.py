@@ -13,8 +13,14 @@ from elastyle.core.rotations import to_matrix
 from elastyle.errors import SkeletonMismatchError
 from elastyle.types import FloatArray, IntArray
 
-# Left/right markers in joint names, matched case-insensitively; group 1 is the side word.
-_SIDE_PATTERNS = (r"[_.](l|r)$", r"^(l|r)[_.]", r"(left|right)")
+# Left/right markers in joint names (group 1 is the side word): _L/.L suffixes, L_/L. prefixes and Left/Right
+# in any letter case, and a capital L/R before a capital letter (LHipJoint, RThumb).
+_SIDE_PATTERNS = (
+    re.compile(r"[_.](l|r)$", re.IGNORECASE),
+    re.compile(r"^(l|r)[_.]", re.IGNORECASE),
+    re.compile(r"(left|right)", re.IGNORECASE),
+    re.compile(r"^(L|R)(?=[A-Z])"),
+)
 _OPPOSITE_SIDE = {"l": "r", "r": "l", "left": "right", "right": "left"}
 
 
@@ -93,23 +99,31 @@ class Skeleton:
 
     def mirror_pairs(self) -> IntArray:
         """(J,) index of each joint's left/right partner (itself for centre joints), from joint names."""
-        return self._mirror_pairs
+        return self._sides[0]
+
+    def sides(self) -> IntArray:
+        """(J,) +1 for a left joint, -1 for a right joint, 0 for a centre joint (one without a partner)."""
+        return self._sides[1]
 
     @cached_property
-    def _mirror_pairs(self) -> IntArray:
+    def _sides(self) -> tuple[IntArray, IntArray]:
+        """The one left/right finder: partners and sides from the side markers of `_SIDE_PATTERNS`."""
         partner = np.arange(self.num_joints)
+        side = np.zeros(self.num_joints, dtype=np.int64)
         lookup = {name: j for j, name in enumerate(self.names)}
         for j, name in enumerate(self.names):
             for pattern in _SIDE_PATTERNS:
-                match = re.search(pattern, name, flags=re.IGNORECASE)
+                match = pattern.search(name)
                 if match is None:
                     continue
                 other = name[: match.start(1)] + _opposite_side(match.group(1)) + name[match.end(1) :]
                 if lookup.get(other, j) != j:
                     partner[j] = lookup[other]
+                    side[j] = 1 if match.group(1).lower() in ("l", "left") else -1
                     break
         partner.flags.writeable = False  # shared by every caller
-        return partner
+        side.flags.writeable = False
+        return partner, side
 
     def rest_positions(self) -> FloatArray:
         """World positions (J, 3) of the joints with every rotation zero."""

@@ -21,6 +21,7 @@ import numpy as np
 
 from elastyle.core.body import heading_yaw, pelvis_forward_local, smooth, yaw_matrices
 from elastyle.core.motion import Motion
+from elastyle.core.resample import interpolate_rows
 from elastyle.core.rotations import (
     continuous_quats,
     from_matrix,
@@ -185,13 +186,9 @@ class RootPath(NamedTuple):
     def sample(self, frame_times: FloatArray) -> RootPath:
         """The path at fractional frame indices (N,), linear between frames and held past the ends."""
         frame_times = np.clip(frame_times, 0.0, self.num_frames - 1)
-        lower = np.floor(frame_times).astype(np.int64)
-        upper = np.minimum(lower + 1, self.num_frames - 1)
-        weight = frame_times - lower
 
         def blend(values: FloatArray) -> FloatArray:
-            w = weight.reshape(-1, *([1] * (values.ndim - 1)))
-            return (1 - w) * values[lower] + w * values[upper]
+            return interpolate_rows(values, frame_times)
 
         # joints above the pelvis hardly move (a static origin on most rigs): nearest frame is enough
         nearest = np.rint(frame_times).astype(np.int64)

@@ -20,6 +20,7 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
+from elastyle.core.resample import interpolate_rows
 from elastyle.types import BoolArray, Float32Array, FloatArray, IntArray
 
 
@@ -43,12 +44,7 @@ def sample_windows(
     starts = np.asarray(starts, dtype=np.float64)[:, None]
     lengths = np.asarray(lengths, dtype=np.float64)[:, None]
     positions = starts + (np.arange(count) + 0.5) * (lengths / count) - 0.5
-    # held at the clip's ends (np.clip costs more on arrays this small)
-    positions = np.minimum(np.maximum(positions, 0), latents.shape[0] - 1)
-    lower = np.floor(positions).astype(np.int64)  # (Q, count)
-    upper = np.minimum(lower + 1, latents.shape[0] - 1)
-    weight = (positions - lower)[..., None]
-    return (1 - weight) * latents[lower] + weight * latents[upper]
+    return interpolate_rows(latents, positions.ravel()).reshape(*positions.shape, -1)  # (Q, count, Z)
 
 
 class StyleWindows:

@@ -11,7 +11,6 @@ import io
 import logging
 import math
 import os
-import re
 import tempfile
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -20,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from elastyle.core.motion import Motion
+from elastyle.core.resample import interpolate_rows
 from elastyle.core.skeleton import Skeleton
 from elastyle.errors import ElastyleError, OutputError
 from elastyle.io.files import check_output_path, write_bytes_atomic
@@ -32,8 +32,6 @@ PANEL_PX = (256, 320)  # width, height of one panel; multiples of 16 for the MP4
 MAX_GIF_FPS = 50.0  # GIF delays count in 10 ms; players slow down anything below 20 ms
 _AZIMUTH_RAD = math.radians(35.0)  # camera swung from +Z (the front) towards +X
 _ELEVATION_RAD = math.radians(18.0)  # camera above the ground plane, looking down
-_LEFT = re.compile(r"(^|[_.])l($|[_.])|left", re.IGNORECASE)
-_RIGHT = re.compile(r"(^|[_.])r($|[_.])|right", re.IGNORECASE)
 SIDE_COLOURS = ("#333333", "#1f6fd1", "#d1431f")  # centre, left, right
 GRID_COLOUR = "#d5d5d5"
 PATH_COLOUR = "#2a9d55"
@@ -47,10 +45,8 @@ def bones(skeleton: Skeleton) -> IntArray:
 
 
 def joint_sides(skeleton: Skeleton) -> IntArray:
-    """(J,) 0 for centre joints, 1 for left, 2 for right, from the joint names."""
-    return np.asarray(
-        [1 if _LEFT.search(n) else 2 if _RIGHT.search(n) else 0 for n in skeleton.names], dtype=np.int64
-    )
+    """(J,) 0 for centre joints, 1 for left, 2 for right (the colour index of `SIDE_COLOURS`)."""
+    return np.choose(skeleton.sides() + 1, [2, 0, 1])
 
 
 def project(points: FloatArray) -> FloatArray:
@@ -64,11 +60,7 @@ def project(points: FloatArray) -> FloatArray:
 
 def sample_positions(positions: FloatArray, clip_fps: float, times_s: FloatArray) -> FloatArray:
     """Joint positions (T, J, 3) at times (N,) seconds, linear between frames; held after the last frame."""
-    frames = np.clip(times_s * clip_fps, 0.0, positions.shape[0] - 1)  # (N,) fractional frame indices
-    lower = np.floor(frames).astype(np.int64)
-    upper = np.minimum(lower + 1, positions.shape[0] - 1)
-    weight = (frames - lower)[:, None, None]  # (N, 1, 1)
-    return (1 - weight) * positions[lower] + weight * positions[upper]  # (N, J, 3)
+    return interpolate_rows(positions, times_s * clip_fps)  # (N, J, 3)
 
 
 def grid_spacing(height: float) -> float:
