@@ -100,7 +100,7 @@ def test_resample_keeps_duration_and_poses(walk_clip) -> None:  # type: ignore[n
 def test_smoothing_matches_scipy() -> None:
     from scipy.ndimage import gaussian_filter1d
 
-    from elastyle.core.body import smooth
+    from elastyle.core.smoothing import smooth
 
     values = np.random.default_rng(0).normal(size=(50, 4, 3))
     for sigma in (0.5, 1.0, 7.5):

@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from elastyle.core.body import heading_yaw, pelvis_forward_local, smooth, yaw_matrices
+from elastyle.core.body import heading_yaw, pelvis_forward_local, yaw_matrices
 from elastyle.core.motion import Motion
 from elastyle.core.resample import interpolate_rows
 from elastyle.core.rotations import (
@@ -33,6 +33,7 @@ from elastyle.core.rotations import (
     to_quat,
 )
 from elastyle.core.skeleton import Skeleton
+from elastyle.core.smoothing import smooth
 from elastyle.types import FloatArray, IntArray
 
 PATH_SMOOTHING_S = 0.25  # Gaussian sigma separating the path (kept) from the sway (transferred)

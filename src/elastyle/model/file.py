@@ -16,9 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from elastyle.core.body import smooth
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
+from elastyle.core.smoothing import smooth
 from elastyle.errors import ModelError
 from elastyle.io.files import write_bytes_atomic
 from elastyle.model.autoencoder import Autoencoder, AutoencoderWeights

@@ -10,11 +10,13 @@ import numpy as np
 from elastyle.core.body import Limbs, find_limbs, leg_length
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import lengths
+from elastyle.core.smoothing import smooth
 from elastyle.steps.contacts import detect_contacts, ground_level, mask_runs, pivots
 from elastyle.steps.leg_ik import is_below, leg_ik
 from elastyle.types import BoolArray, FloatArray, IntArray
 
 BRIDGE_GAP_S = 0.6  # a foot's gaps between contacts up to this long (a step's swing) are bridged directly
+SMOOTH_SIGMA_OF_WIDTH = 0.4  # a window's half-width w is smoothed by a Gaussian of sigma 0.4 w
 SOFT_REACH = 0.995  # IK straightens a knee up to this fraction of the leg's reach before lowering the pelvis
 
 
@@ -78,7 +80,7 @@ def adjust_root_speed(motion: Motion, contacts: BoolArray, smooth_s: float = 0.2
     """Move the pelvis horizontally so that planted feet stop drifting: the root advances with the stride.
 
     contacts: (T, F) planted feet. Each frame step, the mean horizontal step (file units) of the feet held
-    at both frames (weighted as in `clean_feet`), Hann-smoothed over `smooth_s` seconds, is taken off the
+    at both frames (weighted as in `clean_feet`), low-passed over about `smooth_s` seconds, is taken off the
     pelvis path; steps with no foot planted keep theirs. Run it before `clean_feet`.
     """
     limbs = find_limbs(motion.skeleton)
@@ -91,7 +93,7 @@ def adjust_root_speed(motion: Motion, contacts: BoolArray, smooth_s: float = 0.2
     steps = np.sum(planted[..., None] * np.diff(points, axis=0), axis=(1, 2))  # (T-1, 3)
     drift = steps / np.maximum(planted.sum(axis=(1, 2)), 1.0)[:, None]  # (T-1, 3) mean planted-foot step
     drift[:, 1] = 0.0
-    drift = _smooth(drift, smooth_s * motion.fps)
+    drift = smooth(drift, SMOOTH_SIGMA_OF_WIDTH * smooth_s * motion.fps)
     shift = -np.concatenate([np.zeros((1, 3)), np.cumsum(drift, axis=0)])  # (T, 3) world
     return Motion(
         motion.skeleton, motion.rotations.copy(), _shift_pelvis(motion, world_rotations, shift), motion.fps
@@ -186,18 +188,6 @@ def _pin_corrections(
     return corrections
 
 
-def _smooth(values: FloatArray, radius_frames: float) -> FloatArray:
-    """Hann-window average along axis 0 of (T, ...) values, edges held constant."""
-    radius = int(round(radius_frames))
-    if radius < 1 or values.shape[0] < 2:
-        return values.copy()
-    kernel = np.hanning(2 * radius + 3)[1:-1]  # (2r + 1,) positive weights
-    kernel /= kernel.sum()
-    padded = np.pad(values.reshape(len(values), -1), [(radius, radius), (0, 0)], mode="edge")  # (T + 2r, C)
-    columns = [np.convolve(column, kernel, mode="valid") for column in padded.T]
-    return np.stack(columns, axis=1).reshape(values.shape)
-
-
 def _pelvis_lowering(
     positions: FloatArray, chains: IntArray, targets: FloatArray, ramp_frames: float
 ) -> FloatArray:
@@ -221,4 +211,4 @@ def _pelvis_lowering(
     radius = max(1, int(np.ceil(ramp_frames)))
     padded = np.pad(need, radius, mode="edge")
     dilated = np.lib.stride_tricks.sliding_window_view(padded, 2 * radius + 1).max(axis=1)
-    return np.maximum(_smooth(dilated, radius), need)
+    return np.maximum(smooth(dilated, SMOOTH_SIGMA_OF_WIDTH * radius), need)
