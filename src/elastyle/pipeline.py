@@ -11,7 +11,8 @@ Each step is one call into the module that owns it; docs/method.md describes eac
     cross-fade  steps.track.style_track                  two half-shifted patch sequences, triangle weights
     colour      steps.whiten.LatentStats.colour          the style's statistics
     retime      steps.timeline                           strength and styles mixed; the output's time map
-    decode      model.file.StyleModel.decode_latents     latents -> features -> `Motion`
+    decode      steps.decode                             latents -> `Motion`; residual: the content composed
+                                                         with the style's change (strength 0 = the content)
     clean up    steps.cleanup.clean_feet                 feet planted by two-joint leg IK
     write       io.bvh_write.write_bvh                   (the caller)
 """
@@ -30,11 +31,13 @@ from elastyle.model.file import StyleModel, load_model
 from elastyle.steps.cleanup import adjust_root_speed, clean_feet
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.contacts import detect_contacts
+from elastyle.steps.decode import blend_by_strength, compose_residual, decode_plain, output_frames
 from elastyle.steps.explain import explain
 from elastyle.steps.library import StyleLibrary, as_library
 from elastyle.steps.schedule import Schedule
 from elastyle.steps.timeline import content_grid, mix_tracks, on_output_frames, output_content_times
 from elastyle.steps.track import style_track
+from elastyle.types import FloatArray
 
 StyleInput = Motion | Sequence[Motion] | StyleLibrary
 
@@ -92,23 +95,52 @@ def transfer(
     latents, log_rate = mix_tracks(interpolate_rows(content_latents, grid), strength, tracks, shares)
     content_time = output_content_times(grid, log_rate)  # (T_out,) content frames
     # decode on the output's timeline, the root path read at the same content times
-    features = model.decode_latents(on_output_frames(latents, grid, content_time), config.smooth_s)
-    decoded = model.features.decode(features, root.sample(content_time), fps)
-    if config.timing == "content":  # the style's manner on the content's clock, by the inverse map
-        decoded = decoded.sample(
-            np.interp(np.arange(working.num_frames), content_time, np.arange(len(content_time)))
+    root_out = root.sample(content_time)
+    styled = decode_plain(model, on_output_frames(latents, grid, content_time), root_out, config.smooth_s)
+    if config.decode == "plain":
+        motion = _plain_output(styled, content, working.num_frames, content_time, config)
+    else:
+        base_latents = on_output_frames(interpolate_rows(content_latents, grid), grid, content_time)
+        base = decode_plain(model, base_latents, root_out, config.smooth_s)
+        positions, content_frames = output_frames(
+            content_time, fps, content.fps, content.num_frames, config.timing
         )
+        strength_out = config.strength_schedule.at(content_frames / content.fps)  # (N,)
+        motion = compose_residual(
+            styled, base, content, positions, content_frames, strength_out, config.residual_smooth_s
+        )
+        # clean up: plant the feet as far as the style acts
+        if config.cleanup:
+            motion = blend_by_strength(motion, _clean_up(motion, config), strength_out)
+    return TransferResult(motion, explain(tracks, libraries, content_time, fps, config))
+
+
+def _plain_output(
+    decoded: Motion,
+    content: Motion,
+    num_content_frames: int,
+    content_time: FloatArray,
+    config: TransferConfig,
+) -> Motion:
+    """The report's output: the decoded clip (model rate), on the content's clock if asked, cleaned up and
+    resampled to the content's frame rate."""
+    if config.timing == "content":  # the style's manner on the content's clock, by the inverse map
+        frames = np.arange(len(content_time))
+        decoded = decoded.sample(np.interp(np.arange(num_content_frames), content_time, frames))
     # the content's own skeleton (its offsets and End Sites), so the output drops into the content's rig
-    motion = Motion(content.skeleton, decoded.rotations, decoded.translations, fps)
-    # clean up: plant the feet
+    motion = Motion(content.skeleton, decoded.rotations, decoded.translations, decoded.fps)
     if config.cleanup:
-        contacts = None  # found by clean_feet from its own forward kinematics
-        if config.adjust_root:
-            contacts = detect_contacts(motion)
-            motion = adjust_root_speed(motion, contacts)
-        motion = clean_feet(motion, contacts)
-    record = explain(tracks, libraries, content_time, fps, config)
-    return TransferResult(motion.resample(content.fps), record)
+        motion = _clean_up(motion, config)
+    return motion.resample(content.fps)
+
+
+def _clean_up(motion: Motion, config: TransferConfig) -> Motion:
+    """Feet planted (after moving the root with the stance feet, if asked)."""
+    contacts = None  # found by clean_feet from its own forward kinematics
+    if config.adjust_root:
+        contacts = detect_contacts(motion)
+        motion = adjust_root_speed(motion, contacts)
+    return clean_feet(motion, contacts)
 
 
 def _as_schedule(value: float | str | Schedule) -> Schedule:

@@ -20,7 +20,7 @@ from elastyle.types import IntArray
 METHODS = ("elastic", "rigid", "wct", "adain")
 PLACEMENTS = ("sequential", "fixed")
 TIMINGS = ("style", "content")
-DECODINGS = ("plain",)
+DECODINGS = ("residual", "plain")
 
 
 def option(
@@ -69,7 +69,16 @@ class TransferConfig:
     timing: str = option(
         "style", "style: the style's pace; content: warped back onto the content's clock", TIMINGS
     )
-    decode: str = option("plain", "plain: the report's decoding of the styled latents", DECODINGS)
+    decode: str = option(
+        "residual",
+        "residual: the content composed with the style's change to the model's reading of it (strength 0 is "
+        "the content); plain: the report's decoding of the styled latents",
+        DECODINGS,
+    )
+    residual_smooth_s: float = option(
+        0.1, "residual decoding: low-pass (sigma, seconds) of the model's error carried at full strength",
+        low=0.0, high=10.0,
+    )  # fmt: skip
     cleanup: bool = option(True, "plant the feet: contacts pinned by two-joint leg IK")
     adjust_root: bool = option(
         False,

@@ -1,0 +1,105 @@
+"""Decoding on the output's timeline: the report's plain decoding, or residual decoding.
+
+docs/method.md, "Decode". Plain: the output is the decoder's reading of the styled latents, so whatever
+the model cannot represent of the content (its reconstruction error) is in every output. Residual: the
+output is the content, retimed, composed with the change the style makes to the model's reading of it,
+
+    out(t) = styled(t) . E(t),    E(t) = base(t)^-1 . content(tau(t))      (local joint rotations)
+    out(t) = styled(t) + E(t),    E(t) = content(tau(t)) - base(t)          (local joint translations)
+
+where styled = decode(styled latents), base = decode(the content's own latents on the same timeline) and
+tau(t) the content time of output frame t. At strength 0 styled = base, so the output is the content
+exactly, at the content's own frame rate. Where the style acts, the model's error E of the content is
+low-passed (a Gaussian of `residual_smooth_s`, blended in with the strength), so the decoder's frame-to-
+frame noise in `base` does not pass into the output while the content's detail does.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from elastyle.core.motion import Motion
+from elastyle.core.rotations import canonical_log, continuous_log, multiply, quat_multiply, to_quat
+from elastyle.core.smoothing import smooth
+from elastyle.model.features import RootPath
+from elastyle.model.file import StyleModel
+from elastyle.types import FloatArray
+
+
+def decode_plain(model: StyleModel, latents: FloatArray, root: RootPath, smooth_s: float) -> Motion:
+    """The report's decoding: latents (T_out, Z) -> features -> a clip on the root path (T_out frames)."""
+    features = model.decode_latents(latents, smooth_s)
+    return model.features.decode(features, root, model.fps)
+
+
+def output_frames(
+    content_time: FloatArray, model_fps: float, content_fps: float, content_frames: int, timing: str
+) -> tuple[FloatArray, FloatArray]:
+    """Where each output frame at the content's frame rate reads: its position on the model-rate output
+    timeline (N,) and its content frame (N,) in the content's own frames.
+
+    content_time: (T_out,) content frame (model rate) of each model-rate output frame. content_frames: the
+    content's own frame count (its end may fall up to half a model frame past the model-rate clip's, which
+    the output still reaches, at the timeline's last rate). timing "style": the output keeps its own clock;
+    "content": one output frame per content frame (the style's manner on the content's clock).
+    """
+    scale = content_fps / model_fps
+    frames = np.arange(len(content_time), dtype=np.float64)
+    last = len(content_time) - 1
+    if timing == "content":
+        own = np.arange(content_frames, dtype=np.float64)
+        return np.interp(own / scale, content_time, frames), own
+    slope = content_time[-1] - content_time[-2] if last > 0 else 1.0  # content frames per output frame
+    extra = ((content_frames - 1) / scale - content_time[-1]) / max(slope, 1e-9)  # output frames past the end
+    count = max(1, int(round((last + extra) * scale)) + 1)
+    positions = np.arange(count, dtype=np.float64) / scale
+    read = np.interp(positions, frames, content_time) + np.maximum(positions - last, 0.0) * slope
+    return np.minimum(positions, last), np.minimum(read * scale, content_frames - 1)
+
+
+def compose_residual(
+    styled: Motion,
+    base: Motion,
+    content: Motion,
+    positions: FloatArray,
+    content_frames: FloatArray,
+    strength: FloatArray,
+    residual_smooth_s: float,
+) -> Motion:
+    """The residual output (N frames at the content's rate): see the module docstring.
+
+    styled, base: (T_out,) model-rate clips; positions (N,): their frames to read; content_frames (N,): the
+    content's frames to read; strength (N,) in [0, 1]: how far E is low-passed.
+    """
+    styled_at, base_at = styled.sample(positions), base.sample(positions)
+    content_at = content.sample(content_frames)
+    error_rotations = continuous_log(
+        canonical_log(quat_multiply(to_quat(-base_at.rotations), to_quat(content_at.rotations)))
+    )  # (N, J, 3)
+    error_translations = content_at.translations - base_at.translations  # (N, J, 3)
+    sigma = residual_smooth_s * content.fps
+    keep = (1 - strength)[:, None, None]  # the raw error at strength 0, its low-pass at 1
+    low_rotations = smooth(error_rotations, sigma)
+    low_translations = smooth(error_translations, sigma)
+    error_rotations = low_rotations + keep * (error_rotations - low_rotations)
+    error_translations = low_translations + keep * (error_translations - low_translations)
+    rotations = multiply(styled_at.rotations, error_rotations)
+    translations = styled_at.translations + error_translations
+    # at strength 0 the output is the content itself, not its recomposition (exact to the last bit)
+    exact = strength <= 0
+    rotations[exact] = content_at.rotations[exact]
+    translations[exact] = content_at.translations[exact]
+    return Motion(content.skeleton, rotations, translations, content.fps)
+
+
+def blend_by_strength(before: Motion, after: Motion, strength: FloatArray) -> Motion:
+    """Per frame, `before` at strength 0, `after` at 1, and between them (rotations by slerp) in between:
+    how a step that follows the style (the foot clean-up) fades out towards strength 0."""
+    if np.all(strength >= 1):
+        return after
+    weight = np.clip(strength, 0.0, 1.0)[:, None, None]  # (T, 1, 1)
+    change = canonical_log(quat_multiply(to_quat(-before.rotations), to_quat(after.rotations)))
+    rotations = multiply(before.rotations, weight * change)
+    rotations = np.where(weight >= 1, after.rotations, np.where(weight <= 0, before.rotations, rotations))
+    translations = before.translations + weight * (after.translations - before.translations)
+    return Motion(after.skeleton, rotations, translations, after.fps)
