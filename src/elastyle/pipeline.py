@@ -5,6 +5,7 @@ Each step is one call into the module that owns it; docs/method.md describes eac
     read        io.bvh_read.read_bvh                     (the caller: clips in, `Motion`)
     features    model.features.FeatureSpec.encode        rotations -> per-frame features (T, C)
     encode      model.file.StyleModel.encode_motion      features -> latents (T, Z)
+    check       model.depth                              a warning if the model cannot represent the content
     whiten      steps.whiten.LatentStats.whiten          content and style latents decorrelated
     match       steps.search.search_sequential / _fixed  elastic patches: stretched content vs style windows
     place       steps.track._patch_sample                each patch on the content-time grid
@@ -19,6 +20,7 @@ Each step is one call into the module that owns it; docs/method.md describes eac
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Sequence
 from typing import Any, NamedTuple
 
@@ -27,6 +29,7 @@ import numpy as np
 from elastyle.core.motion import Motion
 from elastyle.core.resample import interpolate_rows
 from elastyle.errors import ClipTooShortError
+from elastyle.model.depth import depth_warning, reconstruction_error_cm
 from elastyle.model.file import StyleModel, load_model
 from elastyle.steps.cleanup import adjust_root_speed, clean_feet
 from elastyle.steps.config import TransferConfig
@@ -40,6 +43,7 @@ from elastyle.steps.track import style_track
 from elastyle.types import FloatArray
 
 StyleInput = Motion | Sequence[Motion] | StyleLibrary
+log = logging.getLogger(__name__)
 
 
 class TransferResult(NamedTuple):
@@ -82,6 +86,11 @@ def transfer(
 
     # features and encode: the content's latents (T, Z) and the root path a transfer keeps
     content_latents, root = model.encode_motion(working)
+    # check that the model can represent this content (a warning when far worse than its held-out takes)
+    error_cm = reconstruction_error_cm(model, working, content_latents, root)
+    warning = depth_warning(model, error_cm, content_name)
+    if warning is not None:
+        log.warning("%s", warning)
     # whiten, match, place, cross-fade and colour: one track per style library on a content-time grid
     grid = content_grid(working.num_frames)  # (G,) content frames
     tracks = [style_track(content_latents, library, grid, config, fps) for library in libraries]
@@ -112,7 +121,9 @@ def transfer(
         # clean up: plant the feet as far as the style acts
         if config.cleanup:
             motion = blend_by_strength(motion, _clean_up(motion, config), strength_out)
-    return TransferResult(motion, explain(tracks, libraries, content_time, fps, config))
+    record = explain(tracks, libraries, content_time, fps, config)
+    record["content_reconstruction_cm"] = round(error_cm, 3)
+    return TransferResult(motion, record)
 
 
 def _plain_output(

@@ -25,6 +25,7 @@ from elastyle.core.motion import Motion
 from elastyle.errors import ElastyleError, SkeletonMismatchError
 from elastyle.io.dataset import ClipRef, find_clips, is_held_out
 from elastyle.model.autoencoder import Autoencoder
+from elastyle.model.depth import calibrate
 from elastyle.model.features import FeatureSpec
 from elastyle.model.file import StyleModel, save_model
 from elastyle.training.config import TrainConfig
@@ -195,6 +196,8 @@ def train(
         float(fps),
         metadata,
     )
+    # what it reaches on held-out takes, so a transfer can tell a clip it cannot represent
+    metadata.update(calibrate(model, val_motions[:: max(1, len(val_motions) // 300)]))
     save_model(output, model, force=force)
     log.info("wrote %s after %d steps (%.1f min), held-out loss %.4f", output, step, elapsed / 60, val_loss)
     return model

@@ -1,0 +1,63 @@
+"""Knowing when the model is out of its depth: how well it reconstructs a clip, against held-out takes.
+
+A transfer can show no more of a motion than the model can represent. The model file records what it
+reaches on its held-out takes (`calibrate`, run at the end of training); a clip reconstructed far worse
+than that (`WARN_FACTOR` times the held-out 95th percentile) gets a one-line warning naming it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from elastyle.core.body import centimetres_per_unit
+from elastyle.core.motion import Motion
+from elastyle.model.features import RootPath
+from elastyle.model.file import StyleModel
+from elastyle.types import FloatArray
+
+WARN_FACTOR = 2.0  # warn above this many times the held-out 95th percentile of the reconstruction error
+DEFAULT_WARN_CM = 3.0  # for model files written before calibration was recorded
+
+
+def reconstruction_error_cm(model: StyleModel, motion: Motion, latents: FloatArray, root: RootPath) -> float:
+    """Mean joint position error (cm, relative to the pelvis) of a clip at the model's frame rate (T frames)
+    read back from its own latents (T, Z) on its own root path."""
+    decoded = model.features.decode(model.decode_latents(latents), root, model.fps)
+    pelvis = motion.skeleton.pelvis
+    ours, theirs = motion.positions(), decoded.positions()
+    error = (theirs - theirs[:, pelvis : pelvis + 1]) - (ours - ours[:, pelvis : pelvis + 1])
+    return float(np.sqrt(np.sum(error**2, axis=-1)).mean() * centimetres_per_unit(motion.skeleton))
+
+
+def calibrate(model: StyleModel, held_out: Sequence[Motion]) -> dict[str, Any]:
+    """Held-out reconstruction figures for the model's metadata: median and 95th percentile (cm) and the
+    warning threshold derived from them."""
+    errors = []
+    for motion in held_out:
+        working = motion.resample(model.fps)
+        latents, root = model.encode_motion(working)
+        errors.append(reconstruction_error_cm(model, working, latents, root))
+    if not errors:
+        return {}
+    p95 = float(np.percentile(errors, 95))
+    return {
+        "held_out_joint_error_cm": {"median": round(float(np.median(errors)), 3), "p95": round(p95, 3)},
+        "reconstruction_warn_cm": round(WARN_FACTOR * p95, 2),
+    }
+
+
+def depth_warning(model: StyleModel, error_cm: float, name: str) -> str | None:
+    """The warning for a clip reconstructed with `error_cm`, or None when the model represents it well."""
+    calibrated = "reconstruction_warn_cm" in model.metadata
+    threshold = float(model.metadata.get("reconstruction_warn_cm", DEFAULT_WARN_CM))
+    if error_cm <= threshold:
+        return None
+    basis = f", {WARN_FACTOR:g} times what it reaches on 95 % of its held-out takes" if calibrated else ""
+    return (
+        f"warning: {name}: the model reproduces this clip with {error_cm:.1f} cm mean joint error (warning "
+        f"above {threshold:.1f} cm{basis}): it has not learnt motions like it, so the output will not show "
+        "them faithfully; train a model that includes such clips with `elastyle train` and pass it with --model"
+    )
