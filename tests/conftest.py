@@ -2,15 +2,36 @@
 
 from __future__ import annotations
 
+import os
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 
 from elastyle.io.dataset import ClipRef, default_data_path, find_clips
 
 NO_DATA_REASON = (
     "dataset not found: set ELASTYLE_DATA to the Bandai Namco Research Motion Dataset 2 zip or folder"
 )
+
+
+settings.register_profile("elastyle", derandomize=True, deadline=None)  # the same examples every run
+settings.load_profile("elastyle")
+
+
+@pytest.fixture(scope="session", autouse=True)
+def private_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """Every test (and every command it runs) caches style libraries in a temporary folder, never in the
+    user's ~/.cache/elastyle."""
+    folder = tmp_path_factory.mktemp("cache")
+    before = os.environ.get("ELASTYLE_CACHE")
+    os.environ["ELASTYLE_CACHE"] = str(folder)
+    yield folder
+    if before is None:
+        os.environ.pop("ELASTYLE_CACHE", None)
+    else:
+        os.environ["ELASTYLE_CACHE"] = before
 
 
 @pytest.fixture(scope="session")
@@ -35,56 +56,9 @@ def walk_clip(dataset_clips: list[ClipRef]) -> ClipRef:
     return clip_named(dataset_clips, "dataset-2_walk_normal_001")
 
 
-THREE_CHANNEL_BVH = """HIERARCHY
-ROOT pelvis
-{
-  OFFSET 0 0 0
-  CHANNELS 6 Xposition Yposition Zposition Xrotation Yrotation Zrotation
-  JOINT spine
-  {
-    OFFSET 0 10 0
-    CHANNELS 3 Xrotation Yrotation Zrotation
-    End Site
-    {
-      OFFSET 0 10 0
-    }
-  }
-  JOINT LeftLeg
-  {
-    OFFSET 3 0 0
-    CHANNELS 3 Xrotation Yrotation Zrotation
-    JOINT LeftFoot
-    {
-      OFFSET 0 -10 0
-      CHANNELS 3 Xrotation Yrotation Zrotation
-      End Site
-      {
-        OFFSET 0 0 2
-      }
-    }
-  }
-  JOINT RightLeg
-  {
-    OFFSET -3 0 0
-    CHANNELS 3 Xrotation Yrotation Zrotation
-    JOINT RightFoot
-    {
-      OFFSET 0 -10 0
-      CHANNELS 3 Xrotation Yrotation Zrotation
-      End Site
-      {
-        OFFSET 0 0 2
-      }
-    }
-  }
-}
-MOTION
-Frames: 3
-Frame Time: 0.0083333
-0 20 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0
-1 20 0 90 0 0 0 0 0 10 0 0 0 0 0 0 0 0 0 0 0
-2 20 0 0 90 0 0 0 0 0 0 0 45 30 0 0 0 0 0 0 5
-"""
+DATA = Path(__file__).parent / "data"
+# a 3-channel skeleton of another naming scheme (pelvis, spine, legs), three hand-checkable frames
+THREE_CHANNEL_BVH = (DATA / "three_channel.bvh").read_text()
 
 
 @pytest.fixture
