@@ -1,4 +1,4 @@
-"""Autoencoder quality on held-out takes: reconstruct each clip and compare (METHOD.md section 3)."""
+"""Autoencoder quality on held-out takes: reconstruct each clip and compare (docs/method.md, "Autoencoder")."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Model configuration: the report's architecture by default (METHOD.md section 3)."""
+"""Model configuration: the report's architecture by default (docs/method.md, "Autoencoder")."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Motion <-> per-frame features (T, C) for learning, and the root path that is not transferred.
 
-Channels per frame, in this order (METHOD.md section 2):
+Channels per frame, in this order (docs/method.md, "Features"):
   * every joint below the pelvis: exp map of ref_j^-1 R_j (local rotation relative to a reference),
     3 channels each, kept continuous along time;
   * the pelvis: exp map of ref^-1 (heading^-1 R_world), its tilt and roll relative to the heading (3);

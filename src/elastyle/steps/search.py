@@ -1,4 +1,4 @@
-"""The elastic patch search (METHOD.md section 4, steps 3 to 6).
+"""The elastic patch search (docs/method.md, "Transfer", steps 4 to 7).
 
 Content patches of L frames are compared, after resampling each candidate source length L' to L
 frames, with every style window of L frames by cosine similarity. Two placements of the result:
