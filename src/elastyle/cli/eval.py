@@ -62,10 +62,17 @@ def run_eval(args: argparse.Namespace) -> int:
     if not (args.output and args.content and args.style):
         raise UsageError("give OUT.bvh --content C.bvh --style S.bvh, or --benchmark DATA")
     from elastyle.eval.report import transfer_figures
+    from elastyle.model.depth import clip_depth
 
-    figures = transfer_figures(
-        read_clip(args.output)[0], read_clip(args.content)[0], read_clip(args.style)[0]
-    )
+    output, content, style = (read_clip(path)[0] for path in (args.output, args.content, args.style))
+    figures = transfer_figures(output, content, style)
+    model = load_model(args.model)
+    for name, motion in ((args.content, content), (args.style, style)):
+        if model.skeleton.same_as(motion.skeleton):  # what the model can represent of the inputs
+            error, warning = clip_depth(model, motion, name)
+            figures[f"{'content' if motion is content else 'style'}_reconstruction_cm"] = error
+            if warning is not None:
+                log.warning("%s", warning)
     _print_figures(figures, args.json)
     return 0
 

@@ -32,14 +32,18 @@ def reconstruction_error_cm(model: StyleModel, motion: Motion, latents: FloatArr
     return float(np.sqrt(np.sum(error**2, axis=-1)).mean() * centimetres_per_unit(motion.skeleton))
 
 
+def clip_depth(model: StyleModel, motion: Motion, name: str) -> tuple[float, str | None]:
+    """A clip's reconstruction error (cm) and, when it is far above the held-out takes', the warning."""
+    working = motion.resample(model.fps)
+    latents, root = model.encode_motion(working)
+    error = reconstruction_error_cm(model, working, latents, root)
+    return error, depth_warning(model, error, name)
+
+
 def calibrate(model: StyleModel, held_out: Sequence[Motion]) -> dict[str, Any]:
     """Held-out reconstruction figures for the model's metadata: median and 95th percentile (cm) and the
     warning threshold derived from them."""
-    errors = []
-    for motion in held_out:
-        working = motion.resample(model.fps)
-        latents, root = model.encode_motion(working)
-        errors.append(reconstruction_error_cm(model, working, latents, root))
+    errors = [clip_depth(model, motion, "held-out take")[0] for motion in held_out]
     if not errors:
         return {}
     p95 = float(np.percentile(errors, 95))
