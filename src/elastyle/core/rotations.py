@@ -8,6 +8,9 @@ faster here than building scipy `Rotation` objects for every call.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import numpy as np
 
 from elastyle.types import FloatArray
@@ -48,32 +51,40 @@ def canonical_log(quats: FloatArray) -> FloatArray:
     return from_quat(np.where(quats[..., 3:4] < 0, -quats, quats))
 
 
-def quat_multiply(left: FloatArray, right: FloatArray) -> FloatArray:
-    """Hamilton product of scalar-last quaternions (..., 4): the rotation `left @ right`."""
-    x1, y1, z1, w1 = np.moveaxis(left, -1, 0)
-    x2, y2, z2, w2 = np.moveaxis(right, -1, 0)
-    return np.stack(
+def stack_last(parts: list[Any]) -> Any:
+    """numpy's stack along a new last axis (the default `stack` of the quaternion helpers)."""
+    return np.stack(parts, axis=-1)
+
+
+def quat_multiply(left: Any, right: Any, stack: Callable[[list[Any]], Any] = stack_last) -> Any:
+    """Hamilton product of scalar-last quaternions (..., 4) (numpy arrays, or torch tensors in training):
+    the rotation `left @ right`.
+
+    `stack` joins the four components along a new last axis (training passes torch's).
+    """
+    x1, y1, z1, w1 = (left[..., i] for i in range(4))
+    x2, y2, z2, w2 = (right[..., i] for i in range(4))
+    return stack(
         [
             w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
             w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
             w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
             w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-        ],
-        axis=-1,
+        ]
     )
 
 
-def quat_to_matrix(quats: FloatArray) -> FloatArray:
-    """Unit quaternions (..., 4) -> rotation matrices (..., 3, 3)."""
-    x, y, z, w = np.moveaxis(quats, -1, 0)
-    return np.stack(
+def quat_to_matrix(quats: Any, stack: Callable[[list[Any]], Any] = stack_last) -> Any:
+    """Unit quaternions (..., 4) -> rotation matrices (..., 3, 3), for any array type as `quat_multiply`."""
+    x, y, z, w = (quats[..., i] for i in range(4))
+    matrices = stack(
         [
             1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
             2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
             2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y),
-        ],
-        axis=-1,
-    ).reshape(*quats.shape[:-1], 3, 3)  # fmt: skip
+        ]
+    )  # fmt: skip
+    return matrices.reshape(*quats.shape[:-1], 3, 3)
 
 
 TRACE_FROM_SHEPPERD = -0.9  # 1 + trace = 4 w^2: below 0.1 (rotations past about 162 degrees) use Shepperd

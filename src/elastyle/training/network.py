@@ -1,7 +1,7 @@
 """The autoencoder in torch, for training only: the same layers as `elastyle.model.autoencoder`'s numpy
 forward pass (a test checks they agree), and the forward kinematics of the position loss.
 
-Quaternions here are scalar-last (x, y, z, w), like everywhere else in elastyle.
+Quaternions here are scalar-last (x, y, z, w), through the same helpers as everywhere else in elastyle.
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import torch
 from torch import nn
 from torch.nn import functional
 
-from elastyle.core.rotations import to_quat
+from elastyle.core.rotations import quat_multiply, quat_to_matrix, to_quat
 from elastyle.model.autoencoder import AutoencoderWeights
 from elastyle.model.config import ModelConfig
 from elastyle.model.features import FeatureSpec
@@ -79,30 +79,8 @@ def _bias(layer: nn.Conv1d | nn.ConvTranspose1d) -> torch.Tensor:
     return layer.bias
 
 
-def quat_multiply(left: torch.Tensor, right: torch.Tensor) -> torch.Tensor:
-    """Hamilton product of scalar-last quaternions (..., 4), as `elastyle.core.rotations.quat_multiply`."""
-    x1, y1, z1, w1 = left.unbind(-1)
-    x2, y2, z2, w2 = right.unbind(-1)
-    return torch.stack(
-        [
-            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
-            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-        ],
-        dim=-1,
-    )
-
-
-def quat_to_matrix(quats: torch.Tensor) -> torch.Tensor:
-    """Scalar-last unit quaternions (..., 4) -> rotation matrices (..., 3, 3)."""
-    x, y, z, w = quats.unbind(-1)
-    rows = [
-        1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
-        2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
-        2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y),
-    ]  # fmt: skip
-    return torch.stack(rows, dim=-1).reshape(*quats.shape[:-1], 3, 3)
+def _stack_last(parts: list[torch.Tensor]) -> torch.Tensor:
+    return torch.stack(parts, dim=-1)
 
 
 class PosePositions:
@@ -126,7 +104,9 @@ class PosePositions:
         angle = torch.linalg.norm(rotvec, dim=-1, keepdim=True)
         half_sinc = 0.5 * torch.sinc(angle / (2 * np.pi))  # sin(a / 2) / a, safe at 0
         quats = torch.cat([rotvec * half_sinc, torch.cos(angle / 2)], dim=-1)  # (B, T, J, 4) xyzw
-        matrices = quat_to_matrix(quat_multiply(self.reference, quats))  # (B, T, J, 3, 3)
+        matrices = quat_to_matrix(
+            quat_multiply(self.reference, quats, _stack_last), _stack_last
+        )  # (B, T, J, 3, 3)
         root = torch.stack([x[..., 3 * count], x[..., 3 * count + 2], x[..., 3 * count + 1]], dim=-1)
         world = [matrices[:, :, 0]]
         positions = [root]  # sway x, height, sway z
