@@ -127,6 +127,55 @@ def test_usage_errors_exit_2(tmp_path: Path) -> None:
     assert result.returncode == 2 and "--strength" in result.stderr
 
 
+@pytest.mark.parametrize(
+    "flags, named",
+    [
+        (["--patch-s", "inf"], "--patch-s"),
+        (["--patch-s", "0"], "--patch-s"),
+        (["--stretch", "1"], "--stretch"),
+        (["--stretch-step-s", "-1"], "--stretch-step-s"),
+        (["--smooth-s", "nan"], "--smooth-s"),
+        (["--smooth-s", "1e6"], "--smooth-s"),
+        (["--residual-smooth-s", "-0.1"], "--residual-smooth-s"),
+        (["--strength", "0:0,nan:1"], "--strength"),
+        (["--blend", "0.5"], "--blend"),
+        (["--at", "2"], "--at"),
+        (["--over", "1"], "--over"),
+        (["--method", "magic"], "--method"),
+    ],
+)
+def test_every_wrong_option_exits_2_before_reading_anything(
+    tmp_path: Path, flags: list[str], named: str
+) -> None:
+    """One validation for every option: exit 2, the flag named, no file read (the clips do not exist)."""
+    result = _cli("transfer", "missing.bvh", "--style", "missing.bvh", *flags, "-o", str(tmp_path / "x.bvh"))
+    assert result.returncode == 2, result.stderr
+    assert named in result.stderr and "Traceback" not in result.stderr
+    assert not (tmp_path / "x.bvh").exists()
+
+
+def test_every_config_field_is_a_transfer_flag() -> None:
+    """TransferConfig is the one declaration of the options: each field has a flag of its name."""
+    from dataclasses import fields
+
+    from elastyle import TransferConfig
+
+    help_text = _cli("transfer", "--help").stdout
+    for spec in fields(TransferConfig):
+        flag = spec.name.replace("_", "-")
+        default_on = spec.default is True
+        assert (f"--no-{flag}" if default_on else f"--{flag}") in help_text, flag
+
+
+def test_config_rejects_bad_values_from_python_too() -> None:
+    from elastyle import ConfigError, TransferConfig
+
+    with pytest.raises(ConfigError, match="--stretch"):
+        TransferConfig(stretch=1.5)
+    with pytest.raises(ConfigError, match="unknown transfer option 'strenght'"):
+        TransferConfig.of(strenght=0.5)
+
+
 def test_model_files_through_the_cli(tmp_path: Path, dataset_clips: list[ClipRef]) -> None:
     walk = clip_named(dataset_clips, "dataset-2_walk_normal_005").name
     foreign = tmp_path / "foreign.npz"
