@@ -16,7 +16,9 @@ NO_DATA_REASON = (
 )
 
 
-settings.register_profile("elastyle", derandomize=True, deadline=None)  # the same examples every run
+settings.register_profile(
+    "elastyle", derandomize=True, deadline=None, database=None
+)  # the same examples every run
 settings.load_profile("elastyle")
 
 
@@ -25,13 +27,16 @@ def private_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
     """Every test (and every command it runs) caches style libraries in a temporary folder, never in the
     user's ~/.cache/elastyle."""
     folder = tmp_path_factory.mktemp("cache")
-    before = os.environ.get("ELASTYLE_CACHE")
+    names = ("ELASTYLE_CACHE", "MPLCONFIGDIR")  # matplotlib's font cache too
+    before = {name: os.environ.get(name) for name in names}
     os.environ["ELASTYLE_CACHE"] = str(folder)
+    os.environ["MPLCONFIGDIR"] = str(tmp_path_factory.mktemp("matplotlib"))
     yield folder
-    if before is None:
-        os.environ.pop("ELASTYLE_CACHE", None)
-    else:
-        os.environ["ELASTYLE_CACHE"] = before
+    for name, value in before.items():
+        if value is None:
+            os.environ.pop(name, None)
+        else:
+            os.environ[name] = value
 
 
 @pytest.fixture(scope="session")

@@ -7,8 +7,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from elastyle import mirror, read_bvh
 from elastyle.cli import main
 from elastyle.io.dataset import ClipRef
 from tests.conftest import THREE_CHANNEL_BVH, clip_named
@@ -38,11 +40,13 @@ def test_info_prints_the_clip_facts(walk: str, capsys: pytest.CaptureFixture[str
     assert "joints:   22" in out and "30 fps" in out and "132 (6 per joint)" in out
 
 
-def test_convert_resamples_and_mirrors(walk: str, tmp_path: Path) -> None:
+def test_convert_resamples_and_mirrors(walk: str, tmp_path: Path, dataset_clips: list[ClipRef]) -> None:
     out = tmp_path / "mirrored60.bvh"
     assert main(["convert", walk, "-o", str(out), "--fps", "60", "--mirror"]) == 0
     text = out.read_text()
     assert "Frame Time: 0.0166667" in text
+    expected = mirror(clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0]).resample(60)
+    np.testing.assert_allclose(read_bvh(out)[0].positions(), expected.positions(), atol=1e-3)
     assert main(["convert", walk, "-o", str(out)]) == 1  # exists, no --force
     assert main(["convert", walk, "-o", str(out), "--force"]) == 0
 
@@ -90,42 +94,25 @@ def test_transfer_transition_and_blend(
     walk: str, style: str, dataset_clips: list[ClipRef], tmp_path: Path
 ) -> None:
     other = _member(clip_named(dataset_clips, "dataset-2_walk_active_005"))
+    common = [walk, "--style", style, "--no-cleanup"]
+    single, change, blend = (tmp_path / f"{name}.bvh" for name in ("single", "change", "blend"))
+    assert main(["transfer", *common, "-o", str(single)]) == 0
+    assert main(["transfer", *common, "--then-style", other, "--at", "2", "--over", "2", "-o", str(change),
+                 "--explain", str(tmp_path / "change.json")]) == 0  # fmt: skip
+    assert main(["transfer", *common, "--blend-style", other, "--blend", "0.3", "-o", str(blend),
+                 "--explain", str(tmp_path / "blend.json")]) == 0  # fmt: skip
+    for record in ("change.json", "blend.json"):  # both styles searched
+        assert len(json.loads((tmp_path / record).read_text())["styles"]) == 2
+    positions = {path: read_bvh(path)[0].positions() for path in (single, change, blend)}
+
+    def largest_gap(a: Path, b: Path, frames: slice) -> float:
+        return float(np.abs(positions[a][frames] - positions[b][frames]).max())
+
+    # before the change at 2 s the output is the first style's, frame for frame; later it is not
     assert (
-        main(
-            [
-                "transfer",
-                walk,
-                "--style",
-                style,
-                "--then-style",
-                other,
-                "--at",
-                "2",
-                "--over",
-                "2",
-                "-o",
-                str(tmp_path / "a.bvh"),
-            ]
-        )
-        == 0
+        largest_gap(change, single, slice(0, 45)) < 1e-3 < 1.0 < largest_gap(change, single, slice(90, 200))
     )
-    assert (
-        main(
-            [
-                "transfer",
-                walk,
-                "--style",
-                style,
-                "--blend-style",
-                other,
-                "--blend",
-                "0.3",
-                "-o",
-                str(tmp_path / "b.bvh"),
-            ]
-        )
-        == 0
-    )
+    assert largest_gap(blend, single, slice(0, 45)) > 1.0  # a blend acts from the start
 
 
 def test_errors_are_one_line_with_exit_codes(walk: str, tmp_path: Path) -> None:

@@ -68,7 +68,7 @@ def test_training_resumes_from_checkpoint(trained, tmp_path: Path, data_path: Pa
     from elastyle.training.config import TrainConfig
     from elastyle.training.loop import train
 
-    path, _ = trained
+    path, model = trained
     checkpoint = Path(str(path) + ".ckpt")
     assert checkpoint.exists()
     data = (
@@ -79,11 +79,13 @@ def test_training_resumes_from_checkpoint(trained, tmp_path: Path, data_path: Pa
     resumed = train(
         [data],
         str(tmp_path / "more.npz"),
-        TrainConfig(steps=320, learning_rate=1e-3),
+        TrainConfig(steps=300, learning_rate=1e-3, seed=1),  # another seed: a fresh start would differ
         resume=str(checkpoint),
         progress=False,
     )
-    assert resumed.metadata["steps"] == 320
+    # resumed at the checkpoint's step 300 with a budget of 300: no step taken, the checkpoint's weights
+    assert resumed.metadata["steps"] == 300
+    np.testing.assert_array_equal(resumed.autoencoder.weights.conv1, model.autoencoder.weights.conv1)
 
 
 def test_shipped_model_loads_without_torch_and_pickle() -> None:

@@ -50,8 +50,9 @@ def test_each_method_gives_a_clip_on_the_content_skeleton(
     # the root walks the content's path: same start and end point (within a stride's sway)
     np.testing.assert_allclose(_path(out)[0], _path(content)[0], atol=15)
     np.testing.assert_allclose(_path(out)[-1], _path(content)[-1], atol=15)
-    # and it looks like a walk that differs from the content
-    assert out.positions()[:, :, 1].max() > 120
+    # and it differs from the content
+    n = min(out.num_frames, content.num_frames)
+    assert np.linalg.norm(out.positions()[:n] - content.positions()[:n], axis=-1).mean() > 3.0
 
 
 def test_elastic_takes_the_style_timing_and_rigid_does_not(
@@ -80,29 +81,49 @@ def test_plain_decoding_at_strength_zero_is_the_content_through_the_autoencoder(
 
 
 def test_strength_schedule_fades_the_style_in(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
-    faded = transfer(content, style_clip, TransferConfig(cleanup=False), model=model, strength="0:0,2:0,4:1").motion
-    plain = reconstruct(model, content)
-    # during the first two seconds the output is the content (through the autoencoder), frame for frame
-    np.testing.assert_allclose(faded.positions()[:45], plain.positions()[:45], atol=1e-3)
-    full = transfer(content, style_clip, model=model).motion
-    assert faded.num_frames != content.num_frames or full.num_frames == content.num_frames
-    # after the fade the style's timing takes over: the output is not the content frame for frame
-    assert np.abs(faded.positions()[-30:] - plain.positions()[-30:]).max() > 1.0
+    raw = TransferConfig(cleanup=False)
+    faded = transfer(content, style_clip, raw, model=model, strength="0:0,2:0,4:1").motion
+    full = transfer(content, style_clip, raw, model=model).motion
+    # during the first two seconds the output is the content, frame for frame
+    np.testing.assert_allclose(faded.positions()[:60], content.positions()[:60], atol=1e-6)
+    # the style's faster pace fades in with it: shorter than the content, longer than the full transfer
+    assert full.num_frames < faded.num_frames < content.num_frames
+    # on the content's clock (frames align): after the fade the output is the full transfer's, not the content
+    on_clock = TransferConfig(cleanup=False, timing="content")
+    faded_on_clock = transfer(content, style_clip, on_clock, model=model, strength="0:0,2:0,4:1").motion
+    full_on_clock = transfer(content, style_clip, on_clock, model=model).motion
+    after = slice(135, None)  # from 4.5 s
+    assert (
+        np.linalg.norm(faded_on_clock.positions()[after] - full_on_clock.positions()[after], axis=-1).max()
+        < 1.0
+    )
+    assert (
+        np.linalg.norm(faded_on_clock.positions()[after] - content.positions()[after], axis=-1).max() > 10.0
+    )
 
 
 def test_transition_and_blend_of_two_styles(
     model, content: Motion, style_clip: Motion, dataset_clips
 ) -> None:  # type: ignore[no-untyped-def]
     slow_style = clip_named(dataset_clips, "dataset-2_walk_masculine_010").read()[0]
-    raw = TransferConfig(cleanup=False)
-    only_first = transfer(content, style_clip, raw, model=model).motion
+    raw = TransferConfig(cleanup=False, timing="content")  # frames align with the content's
+    first = transfer(content, style_clip, raw, model=model).motion
+    second = transfer(content, slow_style, raw, model=model).motion
     change = transfer(
         content, style_clip, raw, model=model, second_style=slow_style, second_weight="3:0,5:1"
     ).motion
-    # before the change begins, the output is the first style's
-    np.testing.assert_allclose(change.positions()[:60], only_first.positions()[:60], atol=1e-3)
-    blend = transfer(content, style_clip, model=model, second_style=slow_style, second_weight=0.5).motion
-    assert np.all(np.isfinite(blend.rotations))
+
+    def mean_gap(a: Motion, b: Motion, frames: slice = slice(None)) -> float:
+        return float(np.linalg.norm(a.positions()[frames] - b.positions()[frames], axis=-1).mean())
+
+    # before the change begins, the output is the first style's; after it ends, the second's
+    np.testing.assert_allclose(change.positions()[:60], first.positions()[:60], atol=1e-3)
+    assert mean_gap(change, second, slice(165, None)) < 0.5 < 5.0 < mean_gap(change, first, slice(165, None))
+    # a blend at one half lies between the two styles
+    half = transfer(content, style_clip, raw, model=model, second_style=slow_style, second_weight=0.5).motion
+    gap = mean_gap(first, second)
+    for one in (first, second):
+        assert 0.25 * gap < mean_gap(half, one) < 0.75 * gap
 
 
 def test_explain_lists_every_patch(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
@@ -114,8 +135,9 @@ def test_explain_lists_every_patch(model, content: Motion, style_clip: Motion) -
         assert 0.73 <= row["stretch"] <= 1.27
         assert -1 <= row["similarity"] <= 1
         assert 0 <= row["style_start_frame"] < style_clip.num_frames
-    assert any(row["style_mirrored"] for row in patches) or any(not row["style_mirrored"] for row in patches)
-    assert all(isinstance(row["style_mirrored"], bool) for row in patches)
+    assert any(row["style_mirrored"] for row in patches)  # the library holds the style's mirror
+    unmirrored = transfer(content, style_clip, model=model, style_names=["slow.bvh"], mirror_style=False)
+    assert not any(row["style_mirrored"] for row in unmirrored.explain["styles"][0]["patches"])
     # output times advance by one patch (1 s) per row
     starts = [row["output_start_s"] for row in patches]
     assert np.allclose(np.diff(starts), 1.0, atol=0.05)
@@ -125,17 +147,22 @@ def test_style_library_of_several_clips_and_a_short_style(model, content: Motion
     styles = [clip_named(dataset_clips, f"dataset-2_walk_elderly_{take:03d}").read()[0] for take in (5, 10)]
     library = prepare_style(model, styles, ["a.bvh", "b.bvh"])
     result = transfer(content, library, model=model)
-    used = {row["style_clip"] for row in result.explain["styles"][0]["patches"]}
-    assert used <= {"a.bvh", "b.bvh"}
+    assert result.explain["styles"][0]["clips"] == ["a.bvh", "b.bvh"]
     short_style = styles[0].slice(0, 45)  # 1.5 s, shorter than the content
-    out = transfer(content, short_style, model=model).motion
-    assert np.all(np.isfinite(out.rotations))
+    short = transfer(content, short_style, model=model)
+    assert short.motion.num_frames > 0.5 * content.num_frames
+    assert all(
+        r["style_start_frame"] + r["style_frames"] <= 45 for r in short.explain["styles"][0]["patches"]
+    )
 
 
 def test_content_shorter_than_one_patch_still_transfers(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
     short = content.slice(0, 12)  # 0.4 s, less than the 1 s patch: documented fallback
-    out = transfer(short, style_clip, model=model).motion
-    assert 1 <= out.num_frames <= 12 * 1.5
+    result = transfer(short, style_clip, model=model)
+    assert 1 <= result.motion.num_frames <= 12 * 1.5
+    assert len(result.explain["styles"][0]["patches"]) == 1
+    same = transfer(short, style_clip, model=model, strength=0.0).motion
+    np.testing.assert_allclose(same.positions(), short.positions(), atol=1e-9)
     with pytest.raises(ClipTooShortError, match="at least 2"):
         transfer(content.slice(0, 1), style_clip, model=model)
 
