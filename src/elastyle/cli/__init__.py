@@ -1,4 +1,4 @@
-"""The `elastyle` command line: info | convert | train | transfer.
+"""The `elastyle` command line: info | convert | train | calibrate | transfer | view | render | eval | demo.
 
 Errors a user can fix print one line (`elastyle: error: ...`) and exit 1 (bad data) or 2 (bad usage);
 `--verbose` adds the traceback.
@@ -56,50 +56,6 @@ def _command_convert(args: argparse.Namespace) -> int:
     return 0
 
 
-def _command_train(args: argparse.Namespace) -> int:
-    from elastyle.io.files import check_output_path
-    from elastyle.model.config import ModelConfig
-
-    check_output_path(args.output, force=args.force)
-    try:
-        import torch
-    except ImportError:
-        raise ElastyleError("training needs torch: pip install 'elastyle[train]'") from None
-    from elastyle.training.config import TrainConfig
-    from elastyle.training.loop import train
-
-    if args.threads:
-        torch.set_num_threads(args.threads)
-    if args.minutes is None and args.steps is None:
-        raise UsageError("give a training budget: --minutes or --steps")
-    model_config = ModelConfig(
-        hidden_channels=args.hidden,
-        latent_channels=args.latent,
-        kernel_frames=args.kernel,
-        tied=not args.untied,
-    )
-    config = TrainConfig(
-        model=model_config,
-        batch_size=args.batch_size,
-        learning_rate=args.lr,
-        lr_schedule=args.lr_schedule,
-        window_s=args.window_s,
-        minutes=args.minutes,
-        steps=args.steps,
-        seed=args.seed,
-        mirror_augment=not args.no_mirror,
-        reverse_augment=args.reverse_augment,
-        speed_augment=args.speed_augment,
-        fps=args.fps,
-        position_loss=args.position_loss,
-    )
-    train(
-        args.data, args.output, config, resume=args.resume, force=args.force, progress=not args.no_progress,
-        exclude=args.exclude or (),
-    )  # fmt: skip
-    return 0
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="elastyle", description="Zero-shot motion style transfer for BVH clips."
@@ -119,45 +75,9 @@ def build_parser() -> argparse.ArgumentParser:
     convert.add_argument("--force", action="store_true", help="overwrite an existing output file")
     convert.set_defaults(run=_command_convert)
 
-    trainer = commands.add_parser("train", help="train an autoencoder on BVH clips (needs elastyle[train])")
-    trainer.add_argument("data", nargs="+", help="BVH files, folders, globs or zip archives")
-    trainer.add_argument("-o", "--output", required=True, help="model file to write (.npz)")
-    trainer.add_argument("--minutes", type=float, help="time budget")
-    trainer.add_argument("--steps", type=int, help="step budget")
-    trainer.add_argument("--seed", type=int, default=0)
-    trainer.add_argument(
-        "--resume", help="checkpoint to continue from (MODEL.ckpt is written as training goes)"
-    )
-    trainer.add_argument("--batch-size", type=int, default=16)
-    trainer.add_argument("--lr", type=float, default=1e-4, help="Adam learning rate (report: 1e-4)")
-    trainer.add_argument("--lr-schedule", choices=("constant", "cosine"), default="constant")
-    trainer.add_argument("--window-s", type=float, default=4.0, help="training window length, seconds")
-    trainer.add_argument("--hidden", type=int, default=256)
-    trainer.add_argument("--latent", type=int, default=32)
-    trainer.add_argument("--kernel", type=int, default=15)
-    trainer.add_argument("--untied", action="store_true", help="decoder with weights of its own")
-    trainer.add_argument("--no-mirror", action="store_true", help="no mirrored clips as augmentation")
-    trainer.add_argument(
-        "--reverse-augment", type=float, default=0.0, help="share of training windows played backwards"
-    )
-    trainer.add_argument(
-        "--speed-augment", type=float, default=0.0,
-        help="share of batches played at a speed drawn from 0.5x to 2x",
-    )  # fmt: skip
-    trainer.add_argument(
-        "--exclude", action="append", help="leave out clips whose name matches this glob (repeatable)"
-    )
-    trainer.add_argument("--fps", type=float, help="resample clips to this rate (default: the first clip's)")
-    trainer.add_argument(
-        "--position-loss",
-        type=float,
-        default=0.0,
-        help="weight of a forward-kinematics joint position and velocity loss (0 = the report's)",
-    )
-    trainer.add_argument("--threads", type=int, help="torch CPU threads")
-    trainer.add_argument("--no-progress", action="store_true")
-    trainer.add_argument("--force", action="store_true", help="overwrite an existing model file")
-    trainer.set_defaults(run=_command_train)
+    from elastyle.cli.train import add_train_commands
+
+    add_train_commands(commands)
 
     from elastyle.cli.transfer import add_transfer_command
 

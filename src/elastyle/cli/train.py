@@ -1,0 +1,131 @@
+"""`elastyle train` (a model for any skeleton) and `elastyle calibrate` (its held-out figures)."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from typing import Any
+
+from elastyle.errors import ElastyleError, UsageError
+
+log = logging.getLogger("elastyle")
+
+
+def add_train_commands(commands: Any) -> None:
+    trainer = commands.add_parser("train", help="train an autoencoder on BVH clips (needs elastyle[train])")
+    trainer.add_argument("data", nargs="+", help="BVH files, folders, globs or zip archives")
+    trainer.add_argument("-o", "--output", required=True, help="model file to write (.npz)")
+    trainer.add_argument("--minutes", type=float, help="time budget")
+    trainer.add_argument("--steps", type=int, help="step budget")
+    trainer.add_argument("--seed", type=int, default=0)
+    trainer.add_argument(
+        "--resume", help="checkpoint to continue from (MODEL.ckpt is written as training goes)"
+    )
+    trainer.add_argument("--batch-size", type=int, default=16)
+    trainer.add_argument("--lr", type=float, default=1e-4, help="Adam learning rate (report: 1e-4)")
+    trainer.add_argument("--lr-schedule", choices=("constant", "cosine"), default="constant")
+    trainer.add_argument("--window-s", type=float, default=4.0, help="training window length, seconds")
+    trainer.add_argument("--hidden", type=int, default=256)
+    trainer.add_argument("--latent", type=int, default=32)
+    trainer.add_argument("--kernel", type=int, default=15)
+    trainer.add_argument("--untied", action="store_true", help="decoder with weights of its own")
+    trainer.add_argument("--no-mirror", action="store_true", help="no mirrored clips as augmentation")
+    trainer.add_argument(
+        "--reverse-augment", type=float, default=0.0, help="share of training windows played backwards"
+    )
+    trainer.add_argument(
+        "--speed-augment", type=float, default=0.0,
+        help="share of batches played at a speed drawn from 0.5x to 2x",
+    )  # fmt: skip
+    trainer.add_argument(
+        "--exclude", action="append", help="leave out clips whose name matches this glob (repeatable)"
+    )
+    trainer.add_argument("--fps", type=float, help="resample clips to this rate (default: the first clip's)")
+    trainer.add_argument(
+        "--position-loss",
+        type=float,
+        default=0.0,
+        help="weight of a forward-kinematics joint position and velocity loss (0 = the report's)",
+    )
+    trainer.add_argument("--threads", type=int, help="torch CPU threads")
+    trainer.add_argument("--no-progress", action="store_true")
+    trainer.add_argument("--force", action="store_true", help="overwrite an existing model file")
+    trainer.set_defaults(run=_command_train)
+
+    calibrate = commands.add_parser(
+        "calibrate",
+        help="record a model's held-out reconstruction error, which sets its out-of-depth warning",
+    )
+    calibrate.add_argument("model", help="model file (.npz)")
+    calibrate.add_argument("data", nargs="+", help="its clips: the held-out takes among them are measured")
+    calibrate.add_argument("-o", "--output", required=True, help="model file to write")
+    calibrate.add_argument("--force", action="store_true", help="overwrite an existing model file")
+    calibrate.set_defaults(run=_command_calibrate)
+
+
+def _command_train(args: argparse.Namespace) -> int:
+    from elastyle.io.files import check_output_path
+    from elastyle.model.config import ModelConfig
+
+    check_output_path(args.output, force=args.force)
+    try:
+        import torch
+    except ImportError:
+        raise ElastyleError("training needs torch: pip install 'elastyle[train]'") from None
+    from elastyle.training.config import TrainConfig
+    from elastyle.training.loop import train
+
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    if args.minutes is None and args.steps is None:
+        raise UsageError("give a training budget: --minutes or --steps")
+    model_config = ModelConfig(
+        hidden_channels=args.hidden,
+        latent_channels=args.latent,
+        kernel_frames=args.kernel,
+        tied=not args.untied,
+    )
+    config = TrainConfig(
+        model=model_config,
+        batch_size=args.batch_size,
+        learning_rate=args.lr,
+        lr_schedule=args.lr_schedule,
+        window_s=args.window_s,
+        minutes=args.minutes,
+        steps=args.steps,
+        seed=args.seed,
+        mirror_augment=not args.no_mirror,
+        reverse_augment=args.reverse_augment,
+        speed_augment=args.speed_augment,
+        fps=args.fps,
+        position_loss=args.position_loss,
+    )
+    train(
+        args.data, args.output, config, resume=args.resume, force=args.force, progress=not args.no_progress,
+        exclude=args.exclude or (),
+    )  # fmt: skip
+    return 0
+
+
+def _command_calibrate(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from elastyle.io.dataset import find_clips, is_held_out
+    from elastyle.io.files import check_output_path
+    from elastyle.model.depth import calibrate
+    from elastyle.model.file import load_model, save_model
+
+    check_output_path(args.output, force=args.force, inputs=(args.model,))
+    model = load_model(args.model)
+    held_out = [clip for clip in find_clips(args.data) if is_held_out(clip)]
+    if not held_out:
+        raise ElastyleError(f"{', '.join(args.data)}: no held-out takes to measure")
+    chosen = held_out[:: max(1, len(held_out) // 300)]
+    motions = [clip.read()[0] for clip in chosen]
+    for clip, motion in zip(chosen, motions):
+        model.check_clip(motion, clip.name)
+    figures = calibrate(model, motions)
+    save_model(args.output, replace(model, metadata={**model.metadata, **figures}), force=args.force)
+    log.info("wrote %s: held-out joint error %s cm, warning above %.2f cm", args.output,
+             figures["held_out_joint_error_cm"], figures["reconstruction_warn_cm"])  # fmt: skip
+    return 0
