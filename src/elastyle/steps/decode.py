@@ -71,8 +71,8 @@ def compose_residual(
     styled, base: (T_out,) model-rate clips; positions (N,): their frames to read; content_frames (N,): the
     content's frames to read; strength (N,) in [0, 1]: how far E is low-passed.
     """
-    styled_at, base_at = styled.sample(positions), base.sample(positions)
-    content_at = content.sample(content_frames)
+    styled_at, base_at = _frames_of(styled, positions), _frames_of(base, positions)
+    content_at = _frames_of(content, content_frames)
     error_rotations = continuous_log(
         canonical_log(quat_multiply(to_quat(-base_at.rotations), to_quat(content_at.rotations)))
     )  # (N, J, 3)
@@ -90,6 +90,16 @@ def compose_residual(
     rotations[exact] = content_at.rotations[exact]
     translations[exact] = content_at.translations[exact]
     return Motion(content.skeleton, rotations, translations, content.fps)
+
+
+def _frames_of(motion: Motion, frames: FloatArray) -> Motion:
+    """The clip at frames (N,): whole frames taken as they are (the common case: the model's frame rate),
+    fractional ones by `Motion.sample`."""
+    whole = np.rint(frames)
+    if np.array_equal(whole, frames):
+        index = np.clip(whole.astype(np.int64), 0, motion.num_frames - 1)
+        return Motion(motion.skeleton, motion.rotations[index], motion.translations[index], motion.fps)
+    return motion.sample(frames)
 
 
 def blend_by_strength(before: Motion, after: Motion, strength: FloatArray) -> Motion:
