@@ -1,12 +1,14 @@
 """Does the output take the style's timing? Timing error per method on held-out dataset walk pairs.
 
 python benchmarks/timing.py [--model M] [--pairs 24] [--patch-s 0.5 1.0 ...] [--stretch 0.25 0.5 ...]
+    [--smooth-s 0 0.033 ...]
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from itertools import product
 
 from elastyle.eval.benchmark import benchmark_pairs, score_pairs
 from elastyle.io.dataset import default_data_path
@@ -21,6 +23,7 @@ def main() -> int:
     parser.add_argument("--pairs", type=int, default=24)
     parser.add_argument("--patch-s", type=float, nargs="+", default=[1.0])
     parser.add_argument("--stretch", type=float, nargs="+", default=[0.25])
+    parser.add_argument("--smooth-s", type=float, nargs="+", default=[TransferConfig().smooth_s])
     parser.add_argument("--methods", nargs="+", default=["elastic", "rigid", "elastic-fixed", "wct", "adain"])
     args = parser.parse_args()
     if not args.data:
@@ -30,17 +33,19 @@ def main() -> int:
     pairs = benchmark_pairs(args.data, args.pairs)
     print(f"{len(pairs)} pairs; content cadence - style cadence gap >= 0.15 steps/s")
     print(
-        f"{'method':<16}{'patch_s':>8}{'stretch':>8}{'E median':>10}{'E mean':>8}{'skate':>8}{'jerk x':>8}{'ms':>8}"
+        f"{'method':<16}{'patch_s':>8}{'stretch':>8}{'smooth':>8}{'E median':>10}{'E mean':>8}{'skate':>8}{'jerk x':>8}{'ms':>8}"
     )
     for method in args.methods:
         for patch_s in args.patch_s:
-            for stretch in args.stretch:
+            for stretch, smooth_s in product(args.stretch, args.smooth_s):
                 name, placement = (method.split("-") + ["sequential"])[:2]
-                config = TransferConfig(method=name, placement=placement, patch_s=patch_s, stretch=stretch)
+                config = TransferConfig(
+                    method=name, placement=placement, patch_s=patch_s, stretch=stretch, smooth_s=smooth_s
+                )
                 s = score_pairs(pairs, model, config)
                 print(
-                    f"{method:<16}{patch_s:>8.2f}{stretch:>8.2f}{s['timing_error_median']:>10.3f}{s['timing_error_mean']:>8.3f}"
-                    f"{s['skating_cm_s']:>8.1f}{s['jerk_ratio']:>8.2f}{1000 * s['seconds_per_transfer']:>8.0f}",
+                    f"{method:<16}{patch_s:>8.2f}{stretch:>8.2f}{smooth_s:>8.3f}{s['timing_error_median']:>10.3f}{s['timing_error_mean']:>8.3f}"
+                    f"{s['skating_cm_s']:>8.1f}{s['jitter_vs_content']:>8.2f}{1000 * s['seconds_per_transfer']:>8.0f}",
                     flush=True,
                 )
     return 0

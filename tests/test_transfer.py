@@ -74,7 +74,7 @@ def test_elastic_takes_the_style_timing_and_rigid_does_not(
 def test_plain_decoding_at_strength_zero_is_the_content_through_the_autoencoder(
     model, content: Motion, style_clip: Motion
 ) -> None:  # type: ignore[no-untyped-def]
-    config = TransferConfig(cleanup=False, decode="plain")
+    config = TransferConfig(cleanup=False, decode="plain", smooth_s=0.0)  # the decoder's output as it is
     out = transfer(content, style_clip, config, model=model, strength=0.0).motion
     assert out.num_frames == content.num_frames
     np.testing.assert_allclose(out.positions(), reconstruct(model, content).positions(), atol=1e-3)
@@ -92,7 +92,7 @@ def test_strength_schedule_fades_the_style_in(model, content: Motion, style_clip
     on_clock = TransferConfig(cleanup=False, timing="content")
     faded_on_clock = transfer(content, style_clip, on_clock, model=model, strength="0:0,2:0,4:1").motion
     full_on_clock = transfer(content, style_clip, on_clock, model=model).motion
-    after = slice(135, None)  # from 4.5 s
+    after = slice(135, -15)  # from 4.5 s; the last half second left out: the two timelines end differently
     assert (
         np.linalg.norm(faded_on_clock.positions()[after] - full_on_clock.positions()[after], axis=-1).max()
         < 1.0
@@ -200,6 +200,8 @@ def test_cleanup_plants_the_feet(model, content: Motion, style_clip: Motion, tim
     assert bone_length_error_cm(clean, content) < 1e-6
     toes = clean.positions()[:, [clean.skeleton.index("Toes_L"), clean.skeleton.index("Toes_R")], 1]
     assert toes.min() >= ground_level(raw) - 1e-6
-    if timing == "style":
+    if timing == "style":  # the clean-up keeps the style's timing (the benchmark's median is in the README)
         f_content, f_style = cadence_steps_s(content), cadence_steps_s(style_clip)
-        assert timing_error(cadence_steps_s(clean), f_content, f_style) <= 0.3
+        e_clean = timing_error(cadence_steps_s(clean), f_content, f_style)
+        assert e_clean < 0.5
+        assert abs(e_clean - timing_error(cadence_steps_s(raw), f_content, f_style)) <= 0.05

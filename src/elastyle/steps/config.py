@@ -63,9 +63,16 @@ class TransferConfig:
         1.0, "0 (the content) to 1 (full style), or keyframes in content seconds such as 0:0,2:1", text=True
     )
     mirror_style: bool = option(True, "add each style clip's mirror to its library")
+    whiten_floor: float = option(
+        0.1,
+        "whitening: each latent direction's variance is floored at this fraction of the mean variance, so "
+        "directions that hardly vary are not amplified into the match (1e-4: about the report's whitening)",
+        low=0.0, high=10.0, low_open=True,
+    )  # fmt: skip
     smooth_s: float = option(
-        0.0, "Gaussian low-pass of the decoded motion, sigma in seconds (0: none)", low=0.0, high=10.0
-    )
+        1 / 30, "Gaussian low-pass of the decoded motion, sigma in seconds (0: none; default one frame at 30 fps)",
+        low=0.0, high=10.0,
+    )  # fmt: skip
     timing: str = option(
         "style", "style: the style's pace; content: warped back onto the content's clock", TIMINGS
     )

@@ -9,7 +9,6 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from functools import cached_property
 
 import numpy as np
 
@@ -34,17 +33,21 @@ class StyleLibrary:
     clip_starts: IntArray
     latents: FloatArray
     stats: LatentStats
-    _windows: dict[int, StyleWindows] = field(default_factory=dict)
+    _white: dict[float, FloatArray] = field(default_factory=dict)
+    _windows: dict[tuple[int, float], StyleWindows] = field(default_factory=dict)
 
-    @cached_property
-    def white(self) -> FloatArray:
-        """The library's latents (N, Z) whitened with its own pooled statistics."""
-        return self.stats.whiten(self.latents)
+    def white(self, floor: float) -> FloatArray:
+        """The library's latents (N, Z) whitened with its own pooled statistics (eigenvalue `floor`)."""
+        if floor not in self._white:
+            self._white[floor] = self.stats.whiten(self.latents, floor)
+        return self._white[floor]
 
-    def windows(self, patch_frames: int) -> StyleWindows:
-        if patch_frames not in self._windows:
-            self._windows[patch_frames] = StyleWindows(self.white, self.clip_starts, patch_frames)
-        return self._windows[patch_frames]
+    def windows(self, patch_frames: int, floor: float) -> StyleWindows:
+        """The whitened library's windows of `patch_frames`, ready for the search."""
+        key = (patch_frames, floor)
+        if key not in self._windows:
+            self._windows[key] = StyleWindows(self.white(floor), self.clip_starts, patch_frames)
+        return self._windows[key]
 
     def locate(self, library_frame: int) -> tuple[int, int]:
         """(clip index, frame within that clip) of a library frame."""

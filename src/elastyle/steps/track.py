@@ -38,7 +38,8 @@ def style_track(
     """The track of one library for content latents (T, Z) on grid times (G,) in content frames."""
     content_stats = LatentStats.of([content_latents])
     if config.method == "wct":
-        coloured = library.stats.colour(content_stats.whiten(content_latents))
+        floor = config.whiten_floor
+        coloured = library.stats.colour(content_stats.whiten(content_latents, floor), floor)
         return StyleTrack(interpolate_rows(coloured, grid), np.zeros_like(grid), [], 0)
     if config.method == "adain":
         styled = adain(content_latents, [content_latents], [library.latents])
@@ -49,19 +50,20 @@ def style_track(
             f"style clips are at most {library.longest_clip} frames; patches need {MIN_PATCH_FRAMES}"
         )
     # whiten, then match: the elastic search over stretched content patches, in two half-shifted sequences
-    windows = library.windows(patch_frames)
-    white_content = content_stats.whiten(content_latents)
+    windows = library.windows(patch_frames, config.whiten_floor)
+    white_content = content_stats.whiten(content_latents, config.whiten_floor)
     search = search_sequential if config.placement == "sequential" else search_fixed
     patches, shifted = search(white_content, windows, config.source_lengths(patch_frames, fps))
     # place and cross-fade: each grid time reads both sequences' style windows, weighted by a triangle
     position_a, weight_a, log_rate = _patch_sample(grid, patches, patch_frames)
     position_b, weight_b, _ = _patch_sample(grid, shifted, patch_frames)
+    library_white = library.white(config.whiten_floor)
     white = (
-        weight_a[:, None] * interpolate_rows(library.white, position_a)
-        + weight_b[:, None] * interpolate_rows(library.white, position_b)
+        weight_a[:, None] * interpolate_rows(library_white, position_a)
+        + weight_b[:, None] * interpolate_rows(library_white, position_b)
     ) / (weight_a + weight_b)[:, None]
     # colour with the style's statistics
-    return StyleTrack(library.stats.colour(white), log_rate, patches, patch_frames)
+    return StyleTrack(library.stats.colour(white, config.whiten_floor), log_rate, patches, patch_frames)
 
 
 def _patch_sample(

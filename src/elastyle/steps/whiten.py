@@ -14,37 +14,36 @@ from elastyle.types import FloatArray
 
 
 class LatentStats(NamedTuple):
-    """mean (Z,), covariance (Z, Z), and its whitening / colouring matrices (Z, Z)."""
+    """mean (Z,), covariance (Z, Z), and the covariance's eigenvalues (Z,) and eigenvectors (Z, Z)."""
 
     mean: FloatArray
     covariance: FloatArray
-    whitening: FloatArray
-    colouring: FloatArray
+    eigenvalues: FloatArray
+    eigenvectors: FloatArray
 
     @staticmethod
-    def of(latents: Sequence[FloatArray], eps: float = 1e-4) -> LatentStats:
-        """Stats of latent sequences (T_i, Z); `eps` (relative to the mean variance) regularises dead channels."""
+    def of(latents: Sequence[FloatArray]) -> LatentStats:
+        """Stats of latent sequences (T_i, Z), pooled over every frame."""
         stacked = np.concatenate([np.asarray(z, dtype=np.float64) for z in latents])  # (T, Z)
         mean = stacked.mean(axis=0)
         centred = stacked - mean
         covariance = centred.T @ centred / max(stacked.shape[0] - 1, 1)
         values, vectors = np.linalg.eigh(covariance)
-        floor = eps * max(float(np.mean(np.maximum(values, 0))), 1e-12)
-        values = np.maximum(values, 0) + floor
-        whitening = vectors @ np.diag(values**-0.5) @ vectors.T  # E D^-1/2 E^T
-        colouring = vectors @ np.diag(values**0.5) @ vectors.T  # E D^1/2 E^T
-        return LatentStats(mean, covariance, whitening, colouring)
+        return LatentStats(mean, covariance, np.maximum(values, 0.0), vectors)
 
-    def whiten(self, latents: FloatArray) -> FloatArray:
-        return (latents - self.mean) @ self.whitening.T
+    def _power(self, exponent: float, floor: float) -> FloatArray:
+        """E (D + floor * mean(D))^exponent E^T (Z, Z): `floor` keeps directions that hardly vary from being
+        amplified by whitening (docs/method.md, "Whitening floor")."""
+        values = self.eigenvalues + floor * max(float(np.mean(self.eigenvalues)), 1e-12)
+        return (self.eigenvectors * values**exponent) @ self.eigenvectors.T
 
-    def colour(self, white: FloatArray) -> FloatArray:
-        return white @ self.colouring.T + self.mean
+    def whiten(self, latents: FloatArray, floor: float) -> FloatArray:
+        """Latents (T, Z) centred and decorrelated to unit variance (above the floor)."""
+        return (latents - self.mean) @ self._power(-0.5, floor).T
 
-
-def whiten_colour(content: FloatArray, content_stats: LatentStats, style_stats: LatentStats) -> FloatArray:
-    """Give content latents (T, Z) the style's mean and covariance."""
-    return style_stats.colour(content_stats.whiten(content))
+    def colour(self, white: FloatArray, floor: float) -> FloatArray:
+        """Whitened latents (T, Z) given these statistics."""
+        return white @ self._power(0.5, floor).T + self.mean
 
 
 def adain(
