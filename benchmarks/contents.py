@@ -23,7 +23,9 @@ from elastyle.model.file import load_model
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--model", nargs="+", default=[None], help="model files (default: the shipped one)")
     parser.add_argument("--data", default=str(default_data_path() or ""))
     parser.add_argument("--clips", type=int, default=12, help="held-out takes per content type")

@@ -1,6 +1,6 @@
 """Speed against the machine's own limit, on one core (issue: speed). Prints ratios measured in one run.
 
-    python benchmarks/speed.py [--quick]
+    python benchmarks/speed.py [--quick] [--model M] [--option NAME=VALUE ...]
 
 Cases: 10 s content x 10 s style; 60 s content x a 10-minute style library (dataset walks), each with
 the report's 4-frame stretch step (2 frames at 30 fps) and with every frame. For each: transfer time
@@ -107,7 +107,7 @@ def plain_matmul_s(rows: int, inner: int, columns: int) -> float:
 
 def run_case(name: str, model, content: Motion, style_motions: list[Motion], step_s: float,  # type: ignore[no-untyped-def]
              placement: str = "sequential") -> None:  # fmt: skip
-    config = TransferConfig(stretch_step_s=step_s, placement=placement)
+    config = TransferConfig.of(OPTIONS, stretch_step_s=step_s, placement=placement)
     library = prepare_style(model, style_motions)
     transfer(content, library, config, model=model)  # warm the window cache
     total_s, search_s = np.inf, np.inf
@@ -132,6 +132,20 @@ def run_case(name: str, model, content: Motion, style_motions: list[Motion], ste
     )
 
 
+OPTIONS = TransferConfig()
+
+
+def _option(text: str) -> tuple[str, object]:
+    """NAME=VALUE as a TransferConfig field and its value (numbers as floats, true/false as booleans)."""
+    name, _, value = text.partition("=")
+    if value in ("true", "false"):
+        return name, value == "true"
+    try:
+        return name, float(value)
+    except ValueError:
+        return name, value
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -139,8 +153,15 @@ def main() -> int:
     parser.add_argument("--data", default=str(default_data_path() or ""))
     parser.add_argument("--quick", action="store_true", help="small version: 10 s cases only, fewer files")
     parser.add_argument("--no-io", action="store_true", help="skip the BVH throughput over the dataset")
+    parser.add_argument("--model", help="model file (default: the shipped one)")
+    parser.add_argument(
+        "--option", action="append", default=[], metavar="NAME=VALUE",
+        help="a TransferConfig field for every transfer timed, e.g. decode=plain",
+    )  # fmt: skip
     args = parser.parse_args()
-    model = load_model()
+    global OPTIONS
+    OPTIONS = TransferConfig.of(None, **dict(_option(text) for text in args.option))
+    model = load_model(args.model)
     walks = [c.read()[0] for c in find_clips([args.data], pattern="*_walk_*")[:: 2 if args.quick else 1]]
     neutral = [m for m in walks][:20]
     content_10 = concatenate(neutral, 10)
@@ -151,7 +172,7 @@ def main() -> int:
     )
     for step_s, label, placement in CASES:
         run_case(f"10 s x 10 s, {label}", model, content_10, [style_10], step_s, placement)
-    config = TransferConfig()
+    config = OPTIONS
     library = prepare_style(model, [style_10])
     square = np.random.default_rng(0).standard_normal((1024, 1024), dtype=np.float32)
     gemm_s, whole = interleaved_best(
@@ -161,7 +182,7 @@ def main() -> int:
           f"in these alternate runs): {whole / (gemm_s / 2):.2f} (target <= 1)")  # fmt: skip
     gemm_s, bare = interleaved_best(
         lambda: square @ square,
-        lambda: transfer(content_10, library, TransferConfig(cleanup=False), model=model),
+        lambda: transfer(content_10, library, TransferConfig.of(config, cleanup=False), model=model),
         10,
     )
     print(f"  without the foot clean-up: {bare / (gemm_s / 2):.2f} ({1000 * bare:.1f} ms)")
