@@ -82,7 +82,9 @@ def test_batch_reports_a_bad_clip_and_finishes_the_others(
     assert result.returncode == 1
     assert [line for line in result.stderr.splitlines() if "error" in line] == [
         f"elastyle: error: {bad}: skeleton differs from the model (only in the model: joint_Root, Hips, Spine, Chest, "
-        "Neck, Head, Shoulder_L, UpperArm_L ...; only in this clip: pelvis, spine, LeftLeg, LeftFoot, RightLeg, RightFoot)"
+        "Neck, Head, Shoulder_L, UpperArm_L ...; only in this clip: pelvis, spine, LeftLeg, LeftFoot, RightLeg, RightFoot); "
+        "for this skeleton, train a model on its clips with 'elastyle train CLIPS -o model.npz' and pass it with "
+        "--model model.npz"
     ]
     assert sorted(p.name for p in out.iterdir()) == [
         "dataset-2_walk_normal_005.bvh",
@@ -140,5 +142,5 @@ def test_output_equal_to_input_is_refused(tmp_path: Path) -> None:
     clip = tmp_path / "clip.bvh"
     clip.write_text(THREE_CHANNEL_BVH)
     result = run("convert", str(clip), "-o", str(clip), "--force")
-    assert result.returncode == 1 and "overwrite an input" in result.stderr
+    assert result.returncode == 1 and "would overwrite" in result.stderr
     assert clip.read_text() == THREE_CHANNEL_BVH

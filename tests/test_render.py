@@ -153,5 +153,5 @@ def test_render_command_writes_once(three_channel_bvh: Path, tmp_path: Path) -> 
     with pytest.raises(OutputError, match="already exists"):
         args.run(args)
     args = parser.parse_args(["render", str(three_channel_bvh), "-o", str(three_channel_bvh), "--force"])
-    with pytest.raises(OutputError, match="overwrite an input"):
+    with pytest.raises(OutputError, match="would overwrite"):
         args.run(args)

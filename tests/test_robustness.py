@@ -55,7 +55,7 @@ BAD_FILES: list[tuple[str, bytes, str]] = [
     (
         "bad-frame-time",
         GOOD.replace("Frame Time: 0.0083333", "Frame Time: 0").encode(),
-        "frame time must be positive",
+        "frame time must lie between",
     ),
 ]
 
@@ -99,7 +99,7 @@ def test_path_problems(tmp_path: Path) -> None:
         (["info", str(empty)], "no BVH clips found"),
         (["convert", str(tmp_path), "-o", str(tmp_path / "x.bvh")], "is a directory"),
         (["convert", str(good), "-o", str(tmp_path / "no" / "such" / "x.bvh")], "does not exist"),
-        (["convert", str(good), "-o", str(good), "--force"], "overwrite an input"),
+        (["convert", str(good), "-o", str(good), "--force"], "would overwrite"),
         (["transfer", str(good), "--style", str(good), "-o", str(tmp_path / "a.bvh"), "--model", str(tmp_path / "m.npz")],
          "no such model file"),
     ]  # fmt: skip

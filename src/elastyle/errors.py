@@ -37,6 +37,10 @@ class DatasetError(ElastyleError):
     """A data path (file, folder, glob or zip) that yields no usable clips."""
 
 
+class ResultError(ElastyleError):
+    """A step that produced an unusable result (NaN or infinite values): nothing is written."""
+
+
 class OutputError(ElastyleError):
     """An output path that cannot or must not be written."""
 

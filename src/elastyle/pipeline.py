@@ -28,7 +28,7 @@ import numpy as np
 
 from elastyle.core.motion import Motion
 from elastyle.core.resample import interpolate_rows
-from elastyle.errors import ClipTooShortError
+from elastyle.errors import ClipTooShortError, ResultError
 from elastyle.model.depth import depth_warning, reconstruction_error_cm
 from elastyle.model.file import StyleModel, load_model
 from elastyle.steps.cleanup import adjust_root_speed, clean_feet
@@ -106,6 +106,7 @@ def transfer(
     # decode on the output's timeline, the root path read at the same content times
     root_out = root.sample(content_time)
     styled = decode_plain(model, on_output_frames(latents, grid, content_time), root_out, config.smooth_s)
+    _check_finite(styled, "decoding", content_name)
     if config.decode == "plain":
         motion = _plain_output(styled, content, working.num_frames, content_time, config)
     else:
@@ -121,6 +122,7 @@ def transfer(
         # clean up: plant the feet as far as the style acts
         if config.cleanup:
             motion = blend_by_strength(motion, _clean_up(motion, config), strength_out)
+    _check_finite(motion, "foot clean-up" if config.cleanup else "decoding", content_name)
     record = explain(tracks, libraries, content_time, fps, config)
     record["content_reconstruction_cm"] = round(error_cm, 3)
     return TransferResult(motion, record)
@@ -152,6 +154,12 @@ def _clean_up(motion: Motion, config: TransferConfig) -> Motion:
         contacts = detect_contacts(motion)
         motion = adjust_root_speed(motion, contacts)
     return clean_feet(motion, contacts)
+
+
+def _check_finite(motion: Motion, step: str, content_name: str) -> None:
+    """A `ResultError` naming the step when a result holds NaN or infinite values: nothing is written."""
+    if not (np.all(np.isfinite(motion.rotations)) and np.all(np.isfinite(motion.translations))):
+        raise ResultError(f"{content_name}: the {step} produced NaN or infinite values; nothing written")
 
 
 def _as_schedule(value: float | str | Schedule) -> Schedule:

@@ -11,7 +11,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from elastyle.errors import ElastyleError, OutputError, UsageError
+from elastyle.errors import ElastyleError, UsageError
 
 log = logging.getLogger("elastyle")
 
@@ -38,20 +38,23 @@ def _command_info(args: argparse.Namespace) -> int:
 
 def _command_convert(args: argparse.Namespace) -> int:
     from elastyle.core.mirror import mirror
+    from elastyle.io.bvh_read import MAX_FRAME_TIME_S, MIN_FRAME_TIME_S
     from elastyle.io.bvh_write import write_bvh
     from elastyle.io.dataset import read_clip
     from elastyle.io.files import check_output_path
 
+    if args.fps is not None and not 1 / MAX_FRAME_TIME_S <= args.fps <= 1 / MIN_FRAME_TIME_S:
+        raise UsageError(
+            f"--fps must lie between {1 / MAX_FRAME_TIME_S:g} and {1 / MIN_FRAME_TIME_S:g}, got {args.fps:g}"
+        )
     check_output_path(args.output, force=args.force, inputs=(args.input,))
     motion, layout = read_clip(args.input)
     if args.fps is not None:
-        if args.fps <= 0:
-            raise OutputError(f"--fps must be positive, got {args.fps}")
         motion = motion.resample(args.fps)
         layout = type(layout)(layout.channels, 1.0 / args.fps)
     if args.mirror:
         motion = mirror(motion)
-    write_bvh(args.output, motion, layout, force=args.force)
+    write_bvh(args.output, motion, layout, force=args.force, inputs=(args.input,))
     log.info("wrote %s (%d frames at %.6g fps)", args.output, motion.num_frames, motion.fps)
     return 0
 

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 from elastyle.cli.options import add_config_flags, config_from_args
 from elastyle.core.motion import Motion
-from elastyle.errors import ElastyleError, OutputError, UsageError
+from elastyle.errors import BvhError, ElastyleError, OutputError, UsageError
 from elastyle.io.dataset import ClipRef
 from elastyle.steps.config import TransferConfig
 
@@ -60,9 +60,15 @@ def _outputs(args: argparse.Namespace) -> list[Path]:
     from elastyle.io.files import check_output_path
 
     contents = args.content
+    inputs = _inputs(args)
+    if not args.output:
+        raise UsageError("-o/--output is empty; give a file name (or DIR/ for several content clips)")
     output = Path(args.output)
-    if len(contents) == 1 and not (args.output.endswith(("/", "\\")) or output.is_dir()):
-        return [check_output_path(output, force=args.force, inputs=tuple(contents))]
+    as_folder = args.output.endswith(("/", "\\")) or output.is_dir()
+    if len(contents) == 1 and not as_folder:
+        return [check_output_path(output, force=args.force, inputs=inputs)]
+    if not as_folder:
+        raise UsageError(f"{args.output}: several content clips need an output folder: -o {args.output}/")
     if not output.is_dir():
         if not output.parent.is_dir():
             raise OutputError(
@@ -72,7 +78,25 @@ def _outputs(args: argparse.Namespace) -> list[Path]:
     targets = [output / (Path(c).stem + ".bvh") for c in contents]
     if len(set(targets)) != len(targets):
         raise OutputError(f"{output}: two content clips share a file name")
-    return [check_output_path(t, force=args.force, inputs=tuple(contents)) for t in targets]
+    return [check_output_path(t, force=args.force, inputs=inputs) for t in targets]
+
+
+def _check_inputs_readable(specs: tuple[str, ...]) -> None:
+    """Before any work: a `BvhError` for a named file that must not be read (a pipe, a device, too large)."""
+    from elastyle.io.files import input_problem
+
+    for spec in specs:
+        path = Path(spec)
+        if path.exists() and not path.is_dir():
+            problem = input_problem(path)
+            if problem is not None:
+                raise BvhError(spec, problem)
+
+
+def _inputs(args: argparse.Namespace) -> tuple[str, ...]:
+    """Every file the command reads: no output may replace one of them, --force or not."""
+    styles = [*args.style, *(args.then_style or []), *(args.blend_style or [])]
+    return (*args.content, *styles, *([args.model] if args.model else []))
 
 
 def run_transfer(args: argparse.Namespace) -> int:
@@ -85,8 +109,9 @@ def run_transfer(args: argparse.Namespace) -> int:
     config = config_from_args(TransferConfig, args)  # validated once: a bad value is a UsageError
     _check_style_options(args)
     targets = _outputs(args)
+    _check_inputs_readable(_inputs(args))
     if args.explain:
-        check_output_path(args.explain, force=args.force)
+        check_output_path(args.explain, force=args.force, inputs=(*_inputs(args), *map(str, targets)))
     model = load_model(args.model)
 
     def check(clip: ClipRef, motion: Motion) -> None:
@@ -112,7 +137,7 @@ def run_transfer(args: argparse.Namespace) -> int:
         second = library(args.blend_style)
         second_weight = Schedule.constant(0.5 if args.blend is None else args.blend)
 
-    job = _Job(style, model, config, second, second_weight, args.force, args.explain)
+    job = _Job(style, model, config, second, second_weight, args.force, args.explain, _inputs(args))
     if len(args.content) == 1:
         _transfer_one(job, args.content[0], targets[0])
         return 0
@@ -129,6 +154,7 @@ class _Job(NamedTuple):
     second_weight: Schedule
     force: bool
     explain: str | None
+    inputs: tuple[str, ...]  # what the command reads: never written
 
 
 def _transfer_one(job: _Job, content_spec: str, target: Path) -> None:
@@ -142,10 +168,12 @@ def _transfer_one(job: _Job, content_spec: str, target: Path) -> None:
         motion, job.style, job.config, model=job.model, second_style=job.second,
         second_weight=job.second_weight, content_name=content_spec,
     )  # fmt: skip
-    write_bvh(target, result.motion, layout, force=job.force)
+    write_bvh(target, result.motion, layout, force=job.force, inputs=job.inputs)
     if job.explain:
         explain = dict(result.explain, content=content_spec, output=str(target))
-        write_text_atomic(job.explain, json.dumps(explain, indent=1), force=job.force)
+        write_text_atomic(
+            job.explain, json.dumps(explain, indent=1), force=job.force, inputs=(*job.inputs, str(target))
+        )
     log.info("wrote %s (%d frames, %.2f s; content %.2f s)", target, result.motion.num_frames,
              result.motion.duration_s, motion.duration_s)  # fmt: skip
 

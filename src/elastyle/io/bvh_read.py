@@ -18,7 +18,14 @@ from elastyle.core.skeleton import Skeleton
 from elastyle.errors import BvhError
 from elastyle.io.bvh_layout import POSITION_CHANNELS, ROTATION_CHANNELS, BvhLayout, channel_columns
 from elastyle.io.euler import euler_to_rotvec
+from elastyle.io.files import input_problem
 from elastyle.types import FloatArray
+
+# Values elastyle accepts: positions and angles far inside float32 (the model computes in float32), and
+# frame rates from one frame a minute to 10 kHz.
+LARGEST_VALUE = 1e9
+MIN_FRAME_TIME_S = 1e-4
+MAX_FRAME_TIME_S = 60.0
 
 
 class _Lines:
@@ -40,16 +47,19 @@ class _Lines:
 
 def read_bvh(path: str | os.PathLike[str]) -> tuple[Motion, BvhLayout]:
     """Read a BVH file into a `Motion` and the `BvhLayout` that `write_bvh` needs to reproduce it."""
-    name = str(path)
+    return parse_bvh(read_input(path), str(path))
+
+
+def read_input(path: str | os.PathLike[str]) -> bytes:
+    """A file's bytes, once `io.files.input_problem` has found nothing against reading it (a `BvhError`
+    naming the file otherwise)."""
+    problem = input_problem(path)
+    if problem is not None:
+        raise BvhError(str(path), problem)
     try:
-        data = Path(path).read_bytes()
-    except FileNotFoundError:
-        raise BvhError(name, "no such file") from None
-    except IsADirectoryError:
-        raise BvhError(name, "is a directory, not a BVH file") from None
+        return Path(path).read_bytes()
     except OSError as error:
-        raise BvhError(name, f"cannot read: {error.strerror or error}") from None
-    return parse_bvh(data, name)
+        raise BvhError(str(path), f"cannot read: {error.strerror or error}") from None
 
 
 def parse_bvh(data: bytes, name: str) -> tuple[Motion, BvhLayout]:
@@ -62,6 +72,7 @@ def parse_bvh(data: bytes, name: str) -> tuple[Motion, BvhLayout]:
         text = data.decode("utf-8")
     except UnicodeDecodeError:
         text = data.decode("latin-1")
+    text = text.removeprefix("\ufeff")  # a UTF-8 byte-order mark, as some Windows tools write
     lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
     reader = _Lines(name, lines)
     tokens, line = reader.next_tokens("HIERARCHY")
@@ -174,6 +185,8 @@ def _parse_float(path: str, token: str, line: int) -> float:
         raise BvhError(path, f"not a number: {token[:30]!r}", line) from None
     if not math.isfinite(value):
         raise BvhError(path, f"non-finite value {token!r}", line)
+    if abs(value) > LARGEST_VALUE:
+        raise BvhError(path, f"value beyond {LARGEST_VALUE:g}: {token[:30]!r}", line)
     return value
 
 
@@ -195,8 +208,12 @@ def _parse_motion(reader: _Lines, num_channels: int) -> tuple[FloatArray, float]
     if [t.lower() for t in tokens[:2]] != ["frame", "time:"] or len(tokens) != 3:
         raise BvhError(path, "expected 'Frame Time: seconds'", line)
     frame_time_s = _parse_float(path, tokens[2], line)
-    if frame_time_s <= 0:
-        raise BvhError(path, f"frame time must be positive, got {tokens[2]}", line)
+    if not MIN_FRAME_TIME_S <= frame_time_s <= MAX_FRAME_TIME_S:
+        raise BvhError(
+            path,
+            f"frame time must lie between {MIN_FRAME_TIME_S:g} and {MAX_FRAME_TIME_S:g} s, got {tokens[2]}",
+            line,
+        )
     first_row_line = reader.index + 1
     rows = reader.lines[reader.index :]
     while rows and not rows[-1].strip():
@@ -214,6 +231,10 @@ def _parse_motion(reader: _Lines, num_channels: int) -> tuple[FloatArray, float]
     if not np.all(np.isfinite(values)):
         row = int(np.flatnonzero(~np.all(np.isfinite(values), axis=1))[0])
         raise BvhError(path, "NaN or infinite value in frame data", first_row_line + row)
+    beyond = np.abs(values) > LARGEST_VALUE
+    if np.any(beyond):
+        row = int(np.flatnonzero(np.any(beyond, axis=1))[0])
+        raise BvhError(path, f"value beyond {LARGEST_VALUE:g} in frame data", first_row_line + row)
     return values, frame_time_s
 
 

@@ -9,6 +9,7 @@ import numpy as np
 
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
+from elastyle.errors import BvhError
 from elastyle.io.bvh_layout import BvhLayout, channel_columns
 from elastyle.io.euler import rotvec_to_euler
 from elastyle.io.files import write_text_atomic
@@ -67,10 +68,17 @@ def _format_rows(values: FloatArray) -> str:
 
 
 def write_bvh(
-    path: str | os.PathLike[str], motion: Motion, layout: BvhLayout | None = None, force: bool = False
+    path: str | os.PathLike[str],
+    motion: Motion,
+    layout: BvhLayout | None = None,
+    force: bool = False,
+    inputs: tuple[str, ...] = (),
 ) -> None:
-    """Write a clip as BVH, atomically; refuses to replace an existing file unless `force`."""
-    write_text_atomic(path, bvh_text(motion, layout), force=force)
+    """Write a clip as BVH, atomically; refuses to replace an existing file unless `force`, to write
+    non-finite values, or to replace any of `inputs`."""
+    if not (np.all(np.isfinite(motion.rotations)) and np.all(np.isfinite(motion.translations))):
+        raise BvhError(str(path), "the clip holds NaN or infinite values; nothing written")
+    write_text_atomic(path, bvh_text(motion, layout), force=force, inputs=inputs)
 
 
 def _write_joint(out: io.StringIO, skeleton: Skeleton, layout: BvhLayout, joint: int, depth: int) -> None:

@@ -19,7 +19,8 @@ from typing import NamedTuple
 from elastyle.core.motion import Motion
 from elastyle.errors import BvhError, DatasetError
 from elastyle.io.bvh_layout import BvhLayout
-from elastyle.io.bvh_read import parse_bvh, read_bvh
+from elastyle.io.bvh_read import parse_bvh, read_bvh, read_input
+from elastyle.io.files import input_problem
 
 DATA_ENVIRONMENT_VARIABLE = "ELASTYLE_DATA"
 PUBLIC_DATASET_HINT = (
@@ -47,10 +48,14 @@ class ClipRef(NamedTuple):
 
     def data(self) -> bytes:
         """The file's raw bytes."""
+        if self.archive is None:
+            return read_input(self.name)
         try:
-            if self.archive is None:
-                return Path(self.name).read_bytes()
-            return _open_zip(self.archive, os.getpid()).read(self.member or "")
+            archive = _open_zip(self.archive, os.getpid())
+            problem = input_problem(self.name, size=archive.getinfo(self.member or "").file_size)
+            if problem is not None:
+                raise BvhError(self.name, problem)
+            return archive.read(self.member or "")
         except (KeyError, zipfile.BadZipFile, OSError) as error:
             raise BvhError(self.name, f"cannot read: {error}") from None
 

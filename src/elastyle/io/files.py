@@ -1,44 +1,123 @@
-"""Safe output: never a half-written file, never an overwrite the user did not ask for."""
+"""Safe input and output: only bounded regular files are read; never a half-written file, never an input
+overwritten, never an overwrite the user did not ask for, and of two writers racing to create the same
+new file exactly one wins."""
 
 from __future__ import annotations
 
 import os
+import stat
 from pathlib import Path
 
 from elastyle.errors import OutputError
+
+MAX_INPUT_VARIABLE = "ELASTYLE_MAX_INPUT_MB"
+DEFAULT_MAX_INPUT_MB = 512.0  # about an hour of 120 fps capture of a 60-joint skeleton
+
+
+def max_input_bytes() -> int:
+    """The largest input elastyle reads (bytes): `ELASTYLE_MAX_INPUT_MB`, else 512 MB."""
+    text = os.environ.get(MAX_INPUT_VARIABLE, "")
+    try:
+        megabytes = float(text) if text else DEFAULT_MAX_INPUT_MB
+    except ValueError:
+        megabytes = DEFAULT_MAX_INPUT_MB
+    return int(max(megabytes, 0.0) * 1024 * 1024)
+
+
+def input_problem(path: str | os.PathLike[str], size: int | None = None) -> str | None:
+    """Why a file must not be read (missing, a folder, a pipe or device, too large), or None.
+
+    `size`: the byte count when it is known without a stat (a zip member)."""
+    if size is None:
+        try:
+            info = os.stat(path)
+        except FileNotFoundError:
+            return "no such file"
+        except OSError as error:
+            return f"cannot read: {error.strerror or error}"
+        if stat.S_ISDIR(info.st_mode):
+            return "is a directory, not a file"
+        if not stat.S_ISREG(info.st_mode):
+            return "not a regular file (a pipe, socket or device): give a file"
+        size = info.st_size
+    limit = max_input_bytes()
+    if size > limit:
+        return (
+            f"{size / 2**20:.1f} MB, above the {limit / 2**20:.1f} MB limit for an input "
+            f"(set {MAX_INPUT_VARIABLE} to raise it)"
+        )
+    return None
+
+
+def on_disk(spec: str | os.PathLike[str]) -> Path | None:
+    """The file on disk behind an input: the path itself, or the archive of `archive.zip/member`."""
+    path = Path(spec)
+    for candidate in (path, *path.parents):
+        if candidate.is_file():
+            return candidate
+        if candidate.exists():
+            return None
+    return None
 
 
 def check_output_path(
     path: str | os.PathLike[str], force: bool = False, inputs: tuple[str, ...] = ()
 ) -> Path:
-    """Validate an output path before any work is done; returns it as a `Path`."""
+    """Validate an output path before any work is done; returns it as a `Path`.
+
+    An output may never be one of `inputs` (files, or paths inside a zip archive), with or without force."""
+    if str(path) == "":
+        raise OutputError("an empty output name; give a file name")
     target = Path(path)
     if not target.parent.exists():
         raise OutputError(f"{target}: output folder {target.parent} does not exist")
     if target.is_dir():
         raise OutputError(f"{target}: is a directory; give a file name")
     for source in inputs:
-        try:
-            same = target.exists() and os.path.samefile(target, source)
-        except OSError:
-            same = False
-        if same:
-            raise OutputError(f"{target}: output would overwrite an input file; choose another name")
+        if _same_file(target, source):
+            raise OutputError(
+                f"{target}: would overwrite {source}, which this command reads or writes; choose another name"
+            )
     if target.exists() and not force:
         raise OutputError(f"{target}: already exists (use --force to overwrite)")
     return target
 
 
-def write_bytes_atomic(path: str | os.PathLike[str], data: bytes, force: bool = False) -> None:
-    """Write to a temporary file beside `path`, then rename it into place only once complete."""
-    target = check_output_path(path, force=force)
+def _same_file(target: Path, source: str) -> bool:
+    """Whether `target` is the file behind `source` (by resolved path, or by inode when both exist)."""
+    if os.path.realpath(target) == os.path.realpath(source):
+        return True
+    behind = on_disk(source)
+    if behind is None:
+        return False
+    if os.path.realpath(target) == os.path.realpath(behind):
+        return True
+    try:
+        return target.exists() and os.path.samefile(target, behind)
+    except OSError:
+        return False
+
+
+def write_bytes_atomic(
+    path: str | os.PathLike[str], data: bytes, force: bool = False, inputs: tuple[str, ...] = ()
+) -> None:
+    """Write to a temporary file beside `path`, then put it in place only once complete: renamed over the
+    target with `force`, else linked to a name that must not exist yet (one of two racing writers wins)."""
+    target = check_output_path(path, force=force, inputs=inputs)
+    _remove_stale_temporaries(target)
     temporary, handle = _create_temporary(target)
     try:
         with os.fdopen(handle, "wb") as stream:
             stream.write(data)
             stream.flush()
             os.fsync(stream.fileno())
-        os.replace(temporary, target)
+        if force:
+            os.replace(temporary, target)
+        else:
+            _link_new(temporary, target)
+    except FileExistsError:
+        temporary.unlink(missing_ok=True)
+        raise OutputError(f"{target}: already exists (use --force to overwrite)") from None
     except OSError as error:
         temporary.unlink(missing_ok=True)
         raise OutputError(f"{target}: write failed: {error.strerror or error}") from None
@@ -47,11 +126,29 @@ def write_bytes_atomic(path: str | os.PathLike[str], data: bytes, force: bool = 
         raise
 
 
+def _link_new(temporary: Path, target: Path) -> None:
+    """Give the finished temporary file the target's name, failing with FileExistsError if it exists."""
+    try:
+        os.link(temporary, target)
+    except FileExistsError:
+        raise
+    except OSError:  # a file system without hard links: check and rename (not race-free there)
+        if target.exists():
+            raise FileExistsError(str(target)) from None
+        os.replace(temporary, target)
+        return
+    temporary.unlink()
+
+
+def _temporary_prefix(target: Path) -> str:
+    return f".{target.name}."
+
+
 def _create_temporary(target: Path) -> tuple[Path, int]:
     """A new hidden file beside `target` (a name no other writer holds) and its open descriptor, with the
     user's usual permissions (0666 less the umask)."""
     while True:
-        temporary = target.with_name(f".{target.name}.{os.getpid()}.{os.urandom(4).hex()}.tmp")
+        temporary = target.with_name(f"{_temporary_prefix(target)}{os.getpid()}.{os.urandom(4).hex()}.tmp")
         try:
             return temporary, os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
         except FileExistsError:
@@ -60,5 +157,30 @@ def _create_temporary(target: Path) -> tuple[Path, int]:
             raise OutputError(f"{target}: write failed: {error.strerror or error}") from None
 
 
-def write_text_atomic(path: str | os.PathLike[str], text: str, force: bool = False) -> None:
-    write_bytes_atomic(path, text.encode("utf-8"), force=force)
+def _remove_stale_temporaries(target: Path) -> None:
+    """Temporary files of this target left by a writer that was killed (its process no longer runs)."""
+    prefix = _temporary_prefix(target)
+    try:
+        names = [n for n in os.listdir(target.parent or ".") if n.startswith(prefix) and n.endswith(".tmp")]
+    except OSError:
+        return
+    for name in names:
+        pid_text = name[len(prefix) :].split(".")[0]
+        if pid_text.isdigit() and not _running(int(pid_text)):
+            (target.parent / name).unlink(missing_ok=True)
+
+
+def _running(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # exists, owned by someone else
+        return True
+    return True
+
+
+def write_text_atomic(
+    path: str | os.PathLike[str], text: str, force: bool = False, inputs: tuple[str, ...] = ()
+) -> None:
+    write_bytes_atomic(path, text.encode("utf-8"), force=force, inputs=inputs)

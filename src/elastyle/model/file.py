@@ -19,8 +19,8 @@ import numpy as np
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import smooth
-from elastyle.errors import ModelError
-from elastyle.io.files import write_bytes_atomic
+from elastyle.errors import ModelError, SkeletonMismatchError
+from elastyle.io.files import input_problem, write_bytes_atomic
 from elastyle.model.autoencoder import Autoencoder, AutoencoderWeights
 from elastyle.model.config import ModelConfig
 from elastyle.model.features import FeatureSpec, RootPath
@@ -67,7 +67,14 @@ class StyleModel:
         return smooth(features, smooth_s * self.fps)
 
     def check_clip(self, motion: Motion, what: str) -> None:
-        self.skeleton.check_same(motion.skeleton, "the model", what)
+        """A `SkeletonMismatchError` naming the clip, the joints that differ, and how to get a model for it."""
+        try:
+            self.skeleton.check_same(motion.skeleton, "the model", what)
+        except SkeletonMismatchError as error:
+            raise SkeletonMismatchError(
+                f"{error}; for this skeleton, train a model on its clips with 'elastyle train CLIPS -o "
+                "model.npz' and pass it with --model model.npz"
+            ) from None
 
 
 def save_model(path: str | os.PathLike[str], model: StyleModel, force: bool = False) -> None:
@@ -105,8 +112,9 @@ def default_model_path() -> Path:
 def load_model(path: str | os.PathLike[str] | None = None) -> StyleModel:
     """Load a model file (the shipped pretrained model when `path` is None); `ModelError` if unusable."""
     path = default_model_path() if path is None else Path(path)
-    if not path.exists():
-        raise ModelError(f"{path}: no such model file")
+    problem = input_problem(path)
+    if problem is not None:
+        raise ModelError(f"{path}: {'no such model file' if problem == 'no such file' else problem}")
     try:
         with np.load(path, allow_pickle=False) as archive:
             data = {key: archive[key] for key in archive.files}
@@ -129,6 +137,7 @@ def load_model(path: str | os.PathLike[str] | None = None) -> StyleModel:
         weights = AutoencoderWeights(
             **{n: data[f"weight_{n}"] for n in _WEIGHT_NAMES if f"weight_{n}" in data}
         )
+        _check_arrays(data, config, len(skeleton.names))
         return StyleModel(
             config,
             spec,
@@ -140,3 +149,27 @@ def load_model(path: str | os.PathLike[str] | None = None) -> StyleModel:
         )
     except (KeyError, TypeError, ValueError) as error:
         raise ModelError(f"{path}: incomplete or inconsistent model file ({error})") from None
+
+
+def _check_arrays(data: dict[str, Any], config: ModelConfig, num_joints: int) -> None:
+    """Every numeric array finite and of the shape the config implies; `ValueError` naming the first that
+    is not (the loader turns it into a `ModelError` naming the file)."""
+    for key, value in data.items():
+        if value.dtype.kind == "f" and key != "end_sites" and not np.all(np.isfinite(value)):
+            raise ValueError(f"{key} holds NaN or infinite values")
+    if not (np.isfinite(float(data["fps"])) and 0 < float(data["fps"]) <= 10_000):
+        raise ValueError(f"frame rate {float(data['fps'])} out of range")
+    channels = data["feature_mean"].shape[0]
+    expected = {
+        "joint_parents": (num_joints,),
+        "joint_offsets": (num_joints, 3),
+        "reference_rotations": (num_joints, 3),
+        "feature_std": (channels,),
+        "weight_conv1": (config.hidden_channels, channels, config.kernel_frames),
+        "weight_conv2": (config.latent_channels, config.hidden_channels, 1),
+    }
+    for key, shape in expected.items():
+        if data[key].shape != shape:
+            raise ValueError(f"{key} has shape {data[key].shape}, expected {shape}")
+    if np.any(data["feature_std"] <= 0):
+        raise ValueError("feature_std must be positive")

@@ -9,7 +9,7 @@ import numpy as np
 
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.library import StyleLibrary
-from elastyle.steps.track import StyleTrack
+from elastyle.steps.track import StyleTrack, requested_patch_frames, shortened_patch_note
 from elastyle.types import FloatArray
 
 
@@ -23,6 +23,7 @@ def explain(
     """Per output patch: its style clip (mirrored or not), start frame, stretch factor, similarity and
     times; content_time (T_out,) is the content frame of each output frame."""
     styles = []
+    notes: list[str] = []  # automatic adjustments, as printed
     for track, library in zip(tracks, libraries):
         rows = []
         for patch in track.patches:
@@ -40,7 +41,12 @@ def explain(
                     "similarity": round(patch.similarity, 4),
                 }
             )
-        styles.append({"clips": sorted(set(library.names)), "patches": rows})
+        entry: dict[str, Any] = {"clips": sorted(set(library.names)), "patches": rows}
+        if track.patch_frames:
+            entry["patch_s_used"] = round(track.patch_frames / fps, 4)
+            if track.patch_frames < requested_patch_frames(config, fps):
+                notes.append(shortened_patch_note(track.patch_frames, config, fps))
+        styles.append(entry)
     return {
         "method": config.method,
         "placement": config.placement,
@@ -49,4 +55,5 @@ def explain(
         "model_fps": fps,
         "output_frames": int(len(content_time)),
         "styles": styles,
+        "notes": notes,
     }

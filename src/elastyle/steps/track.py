@@ -7,6 +7,7 @@ of one style library. Strength, transitions and blends are weights over tracks (
 
 from __future__ import annotations
 
+import logging
 from typing import NamedTuple
 
 import numpy as np
@@ -19,6 +20,7 @@ from elastyle.steps.search import Patch, search_fixed, search_sequential
 from elastyle.steps.whiten import LatentStats, adain
 from elastyle.types import FloatArray
 
+log = logging.getLogger(__name__)
 MIN_PATCH_FRAMES = 4
 
 
@@ -30,6 +32,19 @@ class StyleTrack(NamedTuple):
     log_rate: FloatArray
     patches: list[Patch]
     patch_frames: int
+
+
+def requested_patch_frames(config: TransferConfig, fps: float) -> int:
+    """The patch length L (frames at the model's rate) that `--patch-s` asks for."""
+    return max(int(round(config.patch_s * fps)), MIN_PATCH_FRAMES)
+
+
+def shortened_patch_note(patch_frames: int, config: TransferConfig, fps: float) -> str:
+    """The one-line note for patches shortened to the longest style clip."""
+    return (
+        f"the style clips are at most {patch_frames / fps:.2f} s long, so patches are {patch_frames / fps:.2f} s "
+        f"instead of --patch-s {config.patch_s:g}"
+    )
 
 
 def style_track(
@@ -44,11 +59,14 @@ def style_track(
     if config.method == "adain":
         styled = adain(content_latents, [content_latents], [library.latents])
         return StyleTrack(interpolate_rows(styled, grid), np.zeros_like(grid), [], 0)
-    patch_frames = min(max(int(round(config.patch_s * fps)), MIN_PATCH_FRAMES), library.longest_clip)
+    wanted = requested_patch_frames(config, fps)
+    patch_frames = min(wanted, library.longest_clip)
     if patch_frames < MIN_PATCH_FRAMES:
         raise ClipTooShortError(
             f"style clips are at most {library.longest_clip} frames; patches need {MIN_PATCH_FRAMES}"
         )
+    if patch_frames < wanted:
+        log.info("note: %s", shortened_patch_note(patch_frames, config, fps))
     # whiten, then match: the elastic search over stretched content patches, in two half-shifted sequences
     windows = library.windows(patch_frames, config.whiten_floor)
     white_content = content_stats.whiten(content_latents, config.whiten_floor)

@@ -129,7 +129,9 @@ def train(
     if progress:
         from tqdm import tqdm
 
-        bar = tqdm(total=config.steps, initial=step, unit="step", dynamic_ncols=True)
+        bar = tqdm(
+            total=config.steps, initial=step, unit="step", dynamic_ncols=True, disable=None
+        )  # a terminal only
     started = time.perf_counter()
     val_loss = float("nan")
     train_loss = float("nan")

@@ -262,4 +262,4 @@ def _progress(frames: range, enabled: bool, name: str) -> Any:
         from tqdm import tqdm
     except ImportError:
         return frames
-    return tqdm(frames, desc=f"render {name}", unit="frame", leave=False)
+    return tqdm(frames, desc=f"render {name}", unit="frame", leave=False, disable=None)  # a terminal only

@@ -1,0 +1,259 @@
+"""Hardening: special files and oversized inputs refused, values checked, inputs never overwritten, one
+winner among racing writers, no temporary file left for good, nothing non-finite written."""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from elastyle import BvhError, read_bvh, write_bvh
+from elastyle.core.motion import Motion
+from elastyle.errors import OutputError
+from elastyle.io.dataset import ClipRef
+from elastyle.io.files import write_bytes_atomic
+from tests.conftest import THREE_CHANNEL_BVH, clip_named
+
+GOOD = THREE_CHANNEL_BVH
+
+
+def _cli(
+    *args: str, env: dict[str, str] | None = None, timeout: float = 60
+) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "elastyle.cli", *args],
+        capture_output=True, text=True, timeout=timeout, env={**os.environ, **(env or {})},
+    )  # fmt: skip
+
+
+def _one_line_naming(result: subprocess.CompletedProcess[str], name: str, words: str) -> None:
+    line = result.stderr.strip()
+    assert "\n" not in line and "Traceback" not in line, result.stderr
+    assert name in line and words in line, line
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes on this system")
+@pytest.mark.parametrize("role", ["content", "style", "model"])
+def test_a_pipe_is_refused_not_waited_on(tmp_path: Path, role: str) -> None:
+    pipe = tmp_path / "pipe.bvh"
+    os.mkfifo(pipe)
+    good = tmp_path / "good.bvh"
+    good.write_text(GOOD)
+    content, style = (pipe, good) if role == "content" else (good, pipe if role == "style" else good)
+    extra = ["--model", str(pipe)] if role == "model" else []
+    result = _cli(
+        "transfer", str(content), "--style", str(style), "-o", str(tmp_path / "o.bvh"), *extra, timeout=20
+    )
+    assert result.returncode == 1
+    _one_line_naming(result, "pipe.bvh", "not a regular file")
+
+
+def test_a_device_is_refused() -> None:
+    if not Path("/dev/zero").exists():
+        pytest.skip("no /dev/zero here")
+    result = _cli("info", "/dev/zero", timeout=20)
+    assert result.returncode == 1
+    _one_line_naming(result, "/dev/zero", "not a regular file")
+
+
+def test_size_limit_and_its_override(tmp_path: Path) -> None:
+    good = tmp_path / "good.bvh"
+    good.write_text(GOOD)
+    result = _cli("info", str(good), env={"ELASTYLE_MAX_INPUT_MB": "0.0001"})
+    assert result.returncode == 1
+    _one_line_naming(result, "good.bvh", "ELASTYLE_MAX_INPUT_MB")
+    assert _cli("info", str(good), env={"ELASTYLE_MAX_INPUT_MB": "1"}).returncode == 0
+
+
+def test_byte_order_mark_is_accepted(tmp_path: Path) -> None:
+    plain, marked = tmp_path / "plain.bvh", tmp_path / "marked.bvh"
+    plain.write_text(GOOD)
+    marked.write_bytes(b"\xef\xbb\xbf" + GOOD.encode())
+    np.testing.assert_array_equal(read_bvh(marked)[0].rotations, read_bvh(plain)[0].rotations)
+
+
+@pytest.mark.parametrize(
+    "old, new, words",
+    [
+        ("1 20 0 90", "1 20 0 3.5e38", "value beyond"),
+        ("Frame Time: 0.0083333", "Frame Time: 1e-320", "frame time must lie between"),
+        ("OFFSET 0 10 0", "OFFSET 0 3.5e38 0", "value beyond"),
+    ],
+)
+def test_values_out_of_range_are_refused(tmp_path: Path, old: str, new: str, words: str) -> None:
+    assert old in GOOD
+    bad = tmp_path / "bad.bvh"
+    bad.write_text(GOOD.replace(old, new, 1))
+    with pytest.raises(BvhError, match=words):
+        read_bvh(bad)
+
+
+def test_a_thousand_joints_deep_hierarchy_reads(tmp_path: Path) -> None:
+    depth = 1000
+    text = "HIERARCHY\nROOT j0\n{\nOFFSET 0 0 0\nCHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
+    text += "".join(
+        f"JOINT j{k}\n{{\nOFFSET 0 1 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n" for k in range(1, depth)
+    )
+    text += "End Site\n{\nOFFSET 0 1 0\n}\n" + "}\n" * depth
+    text += "MOTION\nFrames: 2\nFrame Time: 0.033333\n" + (" ".join(["0"] * (3 + 3 * depth)) + "\n") * 2
+    deep = tmp_path / "deep.bvh"
+    deep.write_text(text)
+    result = _cli("info", str(deep))
+    assert result.returncode == 0, result.stderr
+    motion = read_bvh(deep)[0]
+    assert motion.skeleton.num_joints == depth
+    assert motion.positions()[0, -1, 1] == pytest.approx(depth - 1)
+
+
+def test_nothing_non_finite_is_written(tmp_path: Path) -> None:
+    good = tmp_path / "good.bvh"
+    good.write_text(GOOD)
+    motion, layout = read_bvh(good)
+    rotations = motion.rotations.copy()
+    rotations[1, 2, 0] = np.nan
+    broken = Motion(motion.skeleton, rotations, motion.translations, motion.fps)
+    out = tmp_path / "out.bvh"
+    with pytest.raises(BvhError, match="NaN or infinite"):
+        write_bvh(out, broken, layout)
+    assert not out.exists() and list(tmp_path.iterdir()) == [good]
+
+
+def test_a_model_with_a_nan_weight_is_refused_on_load(tmp_path: Path) -> None:
+    from elastyle.model.file import default_model_path
+
+    with np.load(default_model_path()) as archive:
+        arrays = {key: archive[key] for key in archive.files}
+    arrays["weight_conv1"] = arrays["weight_conv1"].copy()
+    arrays["weight_conv1"][0, 0, 0] = np.nan
+    model = tmp_path / "nan.npz"
+    np.savez(model, **arrays)
+    good = tmp_path / "good.bvh"
+    good.write_text(GOOD)
+    result = _cli(
+        "transfer", str(good), "--style", str(good), "-o", str(tmp_path / "o.bvh"), "--model", str(model)
+    )
+    assert result.returncode == 1
+    _one_line_naming(result, "nan.npz", "weight_conv1 holds NaN")
+    assert not (tmp_path / "o.bvh").exists()
+
+
+@pytest.mark.slow
+def test_force_never_overwrites_an_input(tmp_path: Path, dataset_clips: list[ClipRef]) -> None:
+    content, style = tmp_path / "content.bvh", tmp_path / "style.bvh"
+    content.write_bytes(clip_named(dataset_clips, "dataset-2_walk_normal_005").data())
+    style.write_bytes(clip_named(dataset_clips, "dataset-2_walk_active_010").data())
+    before = {p: p.read_bytes() for p in (content, style)}
+    out = tmp_path / "out.bvh"
+    cases = [
+        ["-o", str(style)],
+        ["-o", str(content)],
+        ["-o", str(out), "--explain", str(content)],
+        ["-o", str(out), "--explain", str(out)],
+        ["-o", str(tmp_path / ".." / tmp_path.name / "style.bvh")],
+    ]
+    for case in cases:
+        result = _cli("transfer", str(content), "--style", str(style), *case, "--force")
+        assert result.returncode == 1, (case, result.stderr)
+        _one_line_naming(result, "", "would overwrite")
+    assert {p: p.read_bytes() for p in before} == before
+    assert not out.exists()
+
+
+def _race(path: str, tag: str, start: multiprocessing.synchronize.Event, wins: multiprocessing.Queue) -> None:  # type: ignore[type-arg]
+    start.wait()
+    try:
+        write_bytes_atomic(path, tag.encode() * 50_000)
+        wins.put(tag)
+    except OutputError:
+        wins.put("")
+
+
+def test_of_two_racing_writers_exactly_one_wins(tmp_path: Path) -> None:
+    context = multiprocessing.get_context("fork" if sys.platform != "win32" else "spawn")
+    for trial in range(20):
+        target = tmp_path / f"out{trial}.bvh"
+        start, wins = context.Event(), context.Queue()
+        writers = [context.Process(target=_race, args=(str(target), tag, start, wins)) for tag in "ab"]
+        for writer in writers:
+            writer.start()
+        start.set()
+        for writer in writers:
+            writer.join()
+        winners = [w for w in (wins.get(), wins.get()) if w]
+        assert len(winners) == 1, trial
+        assert target.read_bytes() == winners[0].encode() * 50_000
+    assert not [p for p in tmp_path.iterdir() if p.suffix == ".tmp"]
+
+
+def test_a_killed_writers_temporary_file_is_removed_by_the_next_write(tmp_path: Path) -> None:
+    target = tmp_path / "out.bvh"
+    dead = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True
+    )
+    stale = tmp_path / f".out.bvh.{int(dead.stdout)}.0123abcd.tmp"
+    stale.write_text("half a file")
+    other = tmp_path / "keep.tmp"
+    other.write_text("not ours")
+    write_bytes_atomic(target, b"whole")
+    assert not stale.exists() and other.exists() and target.read_bytes() == b"whole"
+
+
+@pytest.mark.parametrize(
+    "contents, output, words",
+    [(1, "", "-o/--output is empty"), (2, "two.bvh", "need an output folder")],
+)
+def test_output_mistakes_exit_2(tmp_path: Path, contents: int, output: str, words: str) -> None:
+    good = tmp_path / "good.bvh"
+    good.write_text(GOOD)
+    result = subprocess.run(
+        [sys.executable, "-m", "elastyle.cli", "transfer", *[str(good)] * contents, "--style", str(good), "-o", output],
+        capture_output=True, text=True, cwd=tmp_path,
+    )  # fmt: skip
+    assert result.returncode == 2 and words in result.stderr, result.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["good.bvh"]
+
+
+def test_convert_refuses_an_absurd_frame_rate(tmp_path: Path) -> None:
+    good = tmp_path / "good.bvh"
+    good.write_text(GOOD)
+    result = _cli("convert", str(good), "-o", str(tmp_path / "o.bvh"), "--fps", "1e12")
+    assert result.returncode == 2 and "--fps" in result.stderr
+
+
+def test_a_skeleton_mismatch_says_how_to_get_a_model(tmp_path: Path) -> None:
+    good = tmp_path / "good.bvh"
+    good.write_text(GOOD)
+    result = _cli("transfer", str(good), "--style", str(good), "-o", str(tmp_path / "o.bvh"))
+    assert result.returncode == 1
+    _one_line_naming(result, "good.bvh", "elastyle train")
+    assert "--model" in result.stderr
+
+
+@pytest.mark.slow
+def test_a_shortened_patch_is_noted_and_recorded(tmp_path: Path, dataset_clips: list[ClipRef]) -> None:
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005")
+    style_text = clip_named(dataset_clips, "dataset-2_walk_active_010").data().decode()
+    head, frames = style_text.split("Frame Time:")
+    rows = frames.split("\n")
+    short = tmp_path / "short.bvh"  # 20 frames: two thirds of a second at 30 fps
+    short.write_text(
+        head.replace(head.split("Frames:")[1].split("\n")[0], " 20")
+        + "Frame Time:"
+        + "\n".join(rows[:21])
+        + "\n"
+    )
+    explain = tmp_path / "o.json"
+    result = _cli(
+        "transfer", walk.name, "--style", str(short), "-o", str(tmp_path / "o.bvh"), "--explain", str(explain)
+    )
+    assert result.returncode == 0, result.stderr
+    assert "note: the style clips are at most 0.67 s long" in result.stderr
+    record = json.loads(explain.read_text())
+    assert record["styles"][0]["patch_s_used"] == pytest.approx(20 / 30, abs=1e-3)
+    assert record["notes"] and "instead of --patch-s 1" in record["notes"][0]
