@@ -257,3 +257,20 @@ def test_a_shortened_patch_is_noted_and_recorded(tmp_path: Path, dataset_clips: 
     record = json.loads(explain.read_text())
     assert record["styles"][0]["patch_s_used"] == pytest.approx(20 / 30, abs=1e-3)
     assert record["notes"] and "instead of --patch-s 1" in record["notes"][0]
+
+
+@pytest.mark.slow
+def test_the_same_bytes_at_one_and_two_blas_threads_cached_or_not(
+    tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005").name
+    style = clip_named(dataset_clips, "dataset-2_walk_active_010").name
+    outputs = []
+    for threads, cache in (("1", "--no-cache"), ("2", "--no-cache"), ("2", "--force"), ("1", "--force")):
+        out = tmp_path / f"out_{threads}{cache}.bvh"
+        env = {name: threads for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
+        env["ELASTYLE_CACHE"] = str(tmp_path / "cache")
+        result = _cli("transfer", walk, "--style", style, "-o", str(out), cache, env=env)
+        assert result.returncode == 0, result.stderr
+        outputs.append(out.read_bytes())
+    assert all(o == outputs[0] for o in outputs)

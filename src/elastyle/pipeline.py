@@ -28,6 +28,7 @@ import numpy as np
 
 from elastyle.core.motion import Motion
 from elastyle.core.resample import interpolate_rows
+from elastyle.core.threads import one_blas_thread
 from elastyle.errors import ClipTooShortError, ResultError
 from elastyle.model.depth import depth_warning, reconstruction_error_cm
 from elastyle.model.file import StyleModel, load_model
@@ -53,6 +54,7 @@ class TransferResult(NamedTuple):
     explain: dict[str, Any]
 
 
+@one_blas_thread
 def transfer(
     content: Motion,
     style: StyleInput,

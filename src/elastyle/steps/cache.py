@@ -43,8 +43,13 @@ def model_fingerprint(model: StyleModel) -> str:
     return digest.hexdigest()
 
 
+CACHE_VERSION = 2  # 2: libraries encoded on one BLAS thread (core.threads), so entries of 1 are not used
+
+
 def library_key(model: StyleModel, clips: list[ClipRef], mirror_style: bool) -> str:
-    digest = hashlib.sha256(f"v{FORMAT_VERSION}:{model_fingerprint(model)}:{mirror_style}".encode())
+    digest = hashlib.sha256(
+        f"v{FORMAT_VERSION}.{CACHE_VERSION}:{model_fingerprint(model)}:{mirror_style}".encode()
+    )
     for clip in clips:
         digest.update(clip.name.encode())
         digest.update(hashlib.sha256(clip.data()).digest())

@@ -14,6 +14,7 @@ import numpy as np
 
 from elastyle.core.mirror import mirror
 from elastyle.core.motion import Motion
+from elastyle.core.threads import one_blas_thread
 from elastyle.errors import ElastyleError, SkeletonMismatchError
 from elastyle.model.file import StyleModel
 from elastyle.steps.search import StyleWindows
@@ -70,6 +71,7 @@ class StyleLibrary:
         )
 
 
+@one_blas_thread
 def prepare_style(
     model: StyleModel,
     motions: Sequence[Motion],

@@ -1,0 +1,25 @@
+"""Deterministic numbers: elastyle's products run on one BLAS thread, so a transfer gives the same bytes
+whatever thread count the machine or the user's environment sets (a multi-threaded BLAS sums in another
+order, which moves values near 1e-4 after the decoder). Batches use processes for parallelism instead."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from functools import wraps
+from typing import ParamSpec, TypeVar
+
+from threadpoolctl import threadpool_limits
+
+Params = ParamSpec("Params")
+Result = TypeVar("Result")
+
+
+def one_blas_thread(function: Callable[Params, Result]) -> Callable[Params, Result]:
+    """Run `function` with the BLAS libraries limited to one thread (restored afterwards)."""
+
+    @wraps(function)
+    def limited(*args: Params.args, **kwargs: Params.kwargs) -> Result:
+        with threadpool_limits(limits=1, user_api="blas"):
+            return function(*args, **kwargs)
+
+    return limited
