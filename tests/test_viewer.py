@@ -8,6 +8,7 @@ import select
 import subprocess
 import sys
 import threading
+import time
 import urllib.error
 import urllib.request
 from collections.abc import Callable, Iterator
@@ -249,3 +250,47 @@ def test_payload_carries_foot_contacts(dataset_clips: list[ClipRef]) -> None:
     assert [motion.skeleton.names[t] for t in clip["toes"]] == ["Toes_L", "Toes_R"]
     contacts = np.array(clip["contacts"]).reshape(motion.num_frames, 2)
     assert 0.3 < contacts.mean() < 0.9  # a walk: each foot planted for part of its cycle
+
+
+def test_explain_shows_style_clips_by_name_only(tmp_path: Path) -> None:
+    explain = read_explain(write_explain(tmp_path / "explain.json", "/home/someone/private/style.bvh"))
+    assert {p["style_clip"] for p in explain["styles"][0]["patches"]} == {"style.bvh"}
+
+
+def test_idle_and_flooding_connections_are_bounded_and_closed(
+    three_channel_bvh: Path, monkeypatch: pytest.MonkeyPatch, capfd: pytest.CaptureFixture[str]
+) -> None:
+    import socket
+
+    from elastyle.viewer import app
+
+    monkeypatch.setattr(app, "IDLE_TIMEOUT_S", 0.5)
+    motion, _ = read_bvh(three_channel_bvh)
+    server = make_server(build_payload([motion] * 40, ["tiny.bvh"] * 40), 0)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    port = server.server_address[1]
+    try:
+        before = threading.active_count()
+        flood = [socket.create_connection(("127.0.0.1", port)) for _ in range(60)]  # idle: send nothing
+        time.sleep(0.2)
+        assert threading.active_count() - before <= app.MAX_CONNECTIONS
+        time.sleep(1.0)  # past the idle timeout: the server has closed them
+        for s in flood:
+            s.settimeout(3.0)  # a connection left open fails the test instead of hanging it
+        assert all(s.recv(16) == b"" for s in flood)
+        for s in flood:
+            s.close()
+        # a client that asks for the payload and hangs up at once: no traceback anywhere
+        for _ in range(5):
+            rude = socket.create_connection(("127.0.0.1", port))
+            rude.sendall(f"GET /clips.json HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n".encode())
+            rude.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, b"\x01\x00\x00\x00\x00\x00\x00\x00")
+            rude.close()
+        time.sleep(0.3)
+        assert fetch(server_url(server) + "clips.json")[0] == 200  # still serving
+    finally:
+        server.shutdown()
+        server.server_close()
+        thread.join(timeout=5)
+    assert "Traceback" not in capfd.readouterr().err

@@ -11,9 +11,10 @@ import errno
 import json
 import logging
 import os
+import threading
 from collections.abc import Sequence
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
-from pathlib import Path
+from pathlib import Path, PurePath
 from typing import Any
 from urllib.parse import urlsplit
 
@@ -26,6 +27,8 @@ from elastyle.viewer.render import bones, grid_spacing, joint_sides
 log = logging.getLogger("elastyle")
 
 HOST = "127.0.0.1"
+IDLE_TIMEOUT_S = 10.0
+MAX_CONNECTIONS = 16
 PAGE_PATH = Path(__file__).resolve().parent / "page.html"  # the page: inline JavaScript on a <canvas>
 _PATCH_FIELDS = (
     ("output_start_s", float),
@@ -98,6 +101,8 @@ def read_explain(path: str | os.PathLike[str]) -> dict[str, Any]:
             raise ElastyleError(f"{path}: a style entry has no 'patches' list")
         try:
             rows = [{key: kind(patch[key]) for key, kind in _PATCH_FIELDS} for patch in patches]
+            for row in rows:  # the page shows clips by name: no folder of the user's goes out
+                row["style_clip"] = PurePath(str(row["style_clip"])).name
         except (KeyError, TypeError, ValueError) as error:
             raise ElastyleError(f"{path}: a patch lacks or mangles field {error}") from None
         tracks.append({"patches": sorted(rows, key=lambda row: row["output_start_s"])})
@@ -110,6 +115,8 @@ def make_server(payload: dict[str, Any], port: int = 0) -> ThreadingHTTPServer:
     page = PAGE_PATH.read_bytes()
 
     class Handler(BaseHTTPRequestHandler):
+        timeout = IDLE_TIMEOUT_S  # a connection that sends nothing for this long is closed
+
         def do_GET(self) -> None:  # noqa: N802 (http.server's name)
             bound = server_port(self.server)
             host = self.headers.get("Host")
@@ -135,13 +142,16 @@ def make_server(payload: dict[str, Any], port: int = 0) -> ThreadingHTTPServer:
                 "default-src 'self'; script-src 'unsafe-inline'; style-src 'unsafe-inline'",
             )
             self.end_headers()
-            self.wfile.write(data)
+            try:
+                self.wfile.write(data)
+            except (BrokenPipeError, ConnectionResetError):  # the browser went away mid-response
+                self.close_connection = True
 
         def log_message(self, format: str, *args: Any) -> None:  # noqa: A002 (http.server's name)
             log.debug("view: " + format, *args)
 
     try:
-        server = ThreadingHTTPServer((HOST, port), Handler)
+        server = _BoundedServer((HOST, port), Handler)
     except OSError as error:
         if error.errno == errno.EADDRINUSE:
             raise ElastyleError(
@@ -150,6 +160,34 @@ def make_server(payload: dict[str, Any], port: int = 0) -> ThreadingHTTPServer:
         raise ElastyleError(f"cannot serve on {HOST}:{port}: {error.strerror or error}") from None
     server.daemon_threads = True
     return server
+
+
+class _BoundedServer(ThreadingHTTPServer):
+    """At most `MAX_CONNECTIONS` requests served at once (more are closed at once, not queued on threads);
+    a client that disconnects is logged at debug level, not printed as a traceback."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._slots = threading.BoundedSemaphore(MAX_CONNECTIONS)
+
+    def process_request(self, request: Any, client_address: Any) -> None:
+        if not self._slots.acquire(blocking=False):
+            self.shutdown_request(request)
+            return
+        try:
+            super().process_request(request, client_address)
+        except BaseException:
+            self._slots.release()
+            raise
+
+    def process_request_thread(self, request: Any, client_address: Any) -> None:
+        try:
+            super().process_request_thread(request, client_address)
+        finally:
+            self._slots.release()
+
+    def handle_error(self, request: Any, client_address: Any) -> None:
+        log.debug("view: connection from %s ended with an error", client_address, exc_info=True)
 
 
 def server_port(server: Any) -> int:
