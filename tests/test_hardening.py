@@ -274,3 +274,30 @@ def test_the_same_bytes_at_one_and_two_blas_threads_cached_or_not(
         assert result.returncode == 0, result.stderr
         outputs.append(out.read_bytes())
     assert all(o == outputs[0] for o in outputs)
+
+
+def test_the_style_cache_keeps_under_its_limit_dropping_the_least_recently_used(tmp_path: Path) -> None:
+    from elastyle.steps.cache import prune_cache
+
+    folder = tmp_path / "libraries"
+    folder.mkdir()
+    for index in range(5):  # 1 MB each, oldest first
+        entry = folder / f"{index}.npz"
+        entry.write_bytes(b"\0" * 2**20)
+        os.utime(entry, (1000 + index, 1000 + index))
+    os.utime(folder / "0.npz")  # just used: the most recent now
+    prune_cache(folder, int(2.5 * 2**20), keep=folder / "4.npz")
+    assert sorted(p.name for p in folder.iterdir()) == ["0.npz", "4.npz"]
+
+
+@pytest.mark.slow
+def test_a_cache_that_cannot_be_written_does_not_fail_a_transfer(
+    tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
+    blocked = tmp_path / "blocked"
+    blocked.write_text("a file where the cache folder should be")
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005").name
+    out = tmp_path / "out.bvh"
+    result = _cli("transfer", walk, "--style", walk, "-o", str(out), env={"ELASTYLE_CACHE": str(blocked)})
+    assert result.returncode == 0, result.stderr
+    assert out.exists()

@@ -2,7 +2,8 @@
 
 Encoding a long style library (features, mirrors, the encoder) is most of the cost of a short transfer
 against it; a second transfer against the same clips and model loads the latents instead. The cache
-lives in `$ELASTYLE_CACHE` or `~/.cache/elastyle`, as plain array archives (no pickle).
+lives in `$ELASTYLE_CACHE` or `~/.cache/elastyle`, as plain array archives (no pickle), and is kept under
+`$ELASTYLE_CACHE_MB` megabytes (default 1024) by removing the least recently used libraries.
 """
 
 from __future__ import annotations
@@ -16,12 +17,26 @@ from pathlib import Path
 import numpy as np
 
 from elastyle.core.motion import Motion
+from elastyle.errors import OutputError
 from elastyle.io.dataset import ClipRef
 from elastyle.io.files import write_bytes_atomic
 from elastyle.model.file import FORMAT_VERSION, StyleModel
 from elastyle.steps.library import StyleLibrary, prepare_style
 
 log = logging.getLogger(__name__)
+
+
+DEFAULT_CACHE_MB = 1024.0
+
+
+def cache_limit_bytes() -> int:
+    """The cache's size limit: `$ELASTYLE_CACHE_MB` megabytes, else 1024."""
+    text = os.environ.get("ELASTYLE_CACHE_MB", "")
+    try:
+        megabytes = float(text) if text else DEFAULT_CACHE_MB
+    except ValueError:
+        megabytes = DEFAULT_CACHE_MB
+    return int(max(megabytes, 0.0) * 2**20)
 
 
 def cache_folder() -> Path:
@@ -76,6 +91,7 @@ def load_library(
                     names, [bool(m) for m in archive["mirrored"]], [latents[a:b] for a, b in spans]
                 )
             log.debug("style library from cache %s", path)
+            os.utime(path)  # recently used: kept longest when the cache is pruned
             return library
         except (OSError, KeyError, ValueError):
             log.debug("unreadable cache entry %s: encoding again", path)
@@ -95,9 +111,29 @@ def load_library(
                 clip_starts=library.clip_starts,
             )  # fmt: skip
             write_bytes_atomic(path, buffer.getvalue(), force=True)
-        except OSError as error:  # a read-only home is no reason to fail a transfer
+            prune_cache(path.parent, cache_limit_bytes(), keep=path)
+        except (OSError, OutputError) as error:  # a read-only home is no reason to fail a transfer
             log.debug("cannot cache the style library: %s", error)
     return library
+
+
+def prune_cache(folder: Path, limit_bytes: int, keep: Path | None = None) -> None:
+    """Remove the least recently used libraries (by modification time) until the folder holds at most
+    `limit_bytes`; `keep` (the entry just written) stays."""
+    entries = []
+    for entry in folder.glob("*.npz"):
+        try:
+            info = entry.stat()
+        except OSError:
+            continue
+        entries.append((info.st_mtime, info.st_size, entry))
+    total = sum(size for _, size, _ in entries)
+    for _, size, entry in sorted(entries, key=lambda item: item[0]):
+        if total <= limit_bytes:
+            break
+        if entry != keep:
+            entry.unlink(missing_ok=True)
+            total -= size
 
 
 def _spans(starts: np.ndarray, total: int) -> list[tuple[int, int]]:
