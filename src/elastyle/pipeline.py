@@ -160,7 +160,7 @@ def _clean_up(motion: Motion, config: TransferConfig) -> Motion:
 
 def _check_finite(motion: Motion, step: str, content_name: str) -> None:
     """A `ResultError` naming the step when a result holds NaN or infinite values: nothing is written."""
-    if not (np.all(np.isfinite(motion.rotations)) and np.all(np.isfinite(motion.translations))):
+    if not motion.is_finite():
         raise ResultError(f"{content_name}: the {step} produced NaN or infinite values; nothing written")
 
 

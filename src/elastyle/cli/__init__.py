@@ -39,7 +39,7 @@ def _command_info(args: argparse.Namespace) -> int:
 def _command_convert(args: argparse.Namespace) -> int:
     from elastyle.core.mirror import mirror
     from elastyle.io.bvh_read import MAX_FRAME_TIME_S, MIN_FRAME_TIME_S
-    from elastyle.io.bvh_write import write_bvh
+    from elastyle.io.clip_write import check_output_format, write_clip
     from elastyle.io.dataset import read_clip
     from elastyle.io.files import check_output_path
 
@@ -47,6 +47,7 @@ def _command_convert(args: argparse.Namespace) -> int:
         raise UsageError(
             f"--fps must lie between {1 / MAX_FRAME_TIME_S:g} and {1 / MIN_FRAME_TIME_S:g}, got {args.fps:g}"
         )
+    check_output_format(args.output)
     check_output_path(args.output, force=args.force, inputs=(args.input,))
     motion, layout = read_clip(args.input)
     if args.fps is not None:
@@ -54,7 +55,7 @@ def _command_convert(args: argparse.Namespace) -> int:
         layout = type(layout)(layout.channels, 1.0 / args.fps)
     if args.mirror:
         motion = mirror(motion)
-    write_bvh(args.output, motion, layout, force=args.force, inputs=(args.input,))
+    write_clip(args.output, motion, layout, force=args.force, inputs=(args.input,))
     log.info("wrote %s (%d frames at %.6g fps)", args.output, motion.num_frames, motion.fps)
     return 0
 
@@ -72,7 +73,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     convert = commands.add_parser("convert", help="resample, mirror and rewrite a BVH clip")
     convert.add_argument("input")
-    convert.add_argument("-o", "--output", required=True)
+    convert.add_argument("-o", "--output", required=True, help="output file: .bvh or .glb (binary glTF 2.0)")
     convert.add_argument("--fps", type=float, help="resample to this frame rate")
     convert.add_argument("--mirror", action="store_true", help="swap left and right")
     convert.add_argument("--force", action="store_true", help="overwrite an existing output file")

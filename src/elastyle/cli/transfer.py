@@ -35,7 +35,10 @@ def add_transfer_command(commands: Any) -> None:
         "--style", action="append", required=True, help="style clip, folder, glob or zip path (repeatable)"
     )
     parser.add_argument(
-        "-o", "--output", required=True, help="output BVH, or a folder for several content clips"
+        "-o",
+        "--output",
+        required=True,
+        help="output file (.bvh, or .glb: binary glTF 2.0), or DIR/ for several content clips",
     )
     parser.add_argument("--model", help="model file (default: the shipped pretrained model)")
     add_config_flags(parser, TransferConfig)
@@ -57,6 +60,7 @@ def add_transfer_command(commands: Any) -> None:
 
 
 def _outputs(args: argparse.Namespace) -> list[Path]:
+    from elastyle.io.clip_write import check_output_format
     from elastyle.io.files import check_output_path
 
     contents = args.content
@@ -66,6 +70,7 @@ def _outputs(args: argparse.Namespace) -> list[Path]:
     output = Path(args.output)
     as_folder = args.output.endswith(("/", "\\")) or output.is_dir()
     if len(contents) == 1 and not as_folder:
+        check_output_format(output)
         return [check_output_path(output, force=args.force, inputs=inputs)]
     if not as_folder:
         raise UsageError(f"{args.output}: several content clips need an output folder: -o {args.output}/")
@@ -158,7 +163,7 @@ class _Job(NamedTuple):
 
 
 def _transfer_one(job: _Job, content_spec: str, target: Path) -> None:
-    from elastyle.io.bvh_write import write_bvh
+    from elastyle.io.clip_write import write_clip
     from elastyle.io.dataset import read_clip
     from elastyle.io.files import write_text_atomic
     from elastyle.pipeline import transfer
@@ -168,7 +173,7 @@ def _transfer_one(job: _Job, content_spec: str, target: Path) -> None:
         motion, job.style, job.config, model=job.model, second_style=job.second,
         second_weight=job.second_weight, content_name=content_spec,
     )  # fmt: skip
-    write_bvh(target, result.motion, layout, force=job.force, inputs=job.inputs)
+    write_clip(target, result.motion, layout, force=job.force, inputs=job.inputs)
     if job.explain:
         explain = dict(result.explain, content=content_spec, output=str(target))
         write_text_atomic(

@@ -48,6 +48,10 @@ class Motion:
     def duration_s(self) -> float:
         return self.num_frames / self.fps
 
+    def is_finite(self) -> bool:
+        """Whether every rotation and translation is a finite number (nothing NaN or infinite)."""
+        return bool(np.all(np.isfinite(self.rotations)) and np.all(np.isfinite(self.translations)))
+
     def slice(self, start: int, stop: int) -> Motion:
         """Frames [start, stop) as a new clip."""
         return Motion(self.skeleton, self.rotations[start:stop], self.translations[start:stop], self.fps)

@@ -76,7 +76,7 @@ def write_bvh(
 ) -> None:
     """Write a clip as BVH, atomically; refuses to replace an existing file unless `force`, to write
     non-finite values, or to replace any of `inputs`."""
-    if not (np.all(np.isfinite(motion.rotations)) and np.all(np.isfinite(motion.translations))):
+    if not motion.is_finite():
         raise BvhError(str(path), "the clip holds NaN or infinite values; nothing written")
     write_text_atomic(path, bvh_text(motion, layout), force=force, inputs=inputs)
 

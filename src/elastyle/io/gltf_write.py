@@ -1,0 +1,145 @@
+"""glTF 2.0 out: a clip as a binary glTF (`.glb`) for engines, Blender and the web.
+
+The skeleton becomes a node hierarchy (joint names kept, End Sites as `<joint>_end` leaves), a skin over
+the joints with their inverse bind matrices (the rest pose: offsets, no rotation), and one animation with
+a rotation track per joint and a translation track per joint whose translation moves, sampled at the
+clip's frame times with linear interpolation. glTF wants metres and Y up: lengths are scaled from the
+file's unit (`core.body.centimetres_per_unit`), and BVH is Y up already. Written with pygltflib.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import numpy as np
+
+from elastyle.core.body import centimetres_per_unit
+from elastyle.core.motion import Motion
+from elastyle.core.rotations import continuous_quats, to_quat
+from elastyle.errors import BvhError
+from elastyle.io.files import write_bytes_atomic
+from elastyle.types import AnyFloatArray, FloatArray
+
+
+def metres_per_unit(motion: Motion) -> float:
+    """The scale from the clip's file unit to metres."""
+    return centimetres_per_unit(motion.skeleton) / 100.0
+
+
+def glb_bytes(motion: Motion) -> bytes:
+    """The clip (T frames, J joints) as the bytes of a `.glb` file."""
+    import pygltflib as gl
+
+    scale = metres_per_unit(motion)
+    skeleton = motion.skeleton
+    blob = _Blob()
+    rest = skeleton.offsets * scale  # (J, 3) metres
+    translations = motion.translations * scale  # (T, J, 3)
+    quats = continuous_quats(to_quat(motion.rotations), axis=0)  # (T, J, 4) x, y, z, w
+    nodes = [
+        gl.Node(
+            name=name, translation=_floats(translations[0, j]), rotation=_floats(quats[0, j]), children=[]
+        )
+        for j, name in enumerate(skeleton.names)
+    ]
+    for joint, parent in enumerate(skeleton.parents):
+        if parent >= 0:
+            nodes[int(parent)].children.append(joint)
+    for joint, end in enumerate(skeleton.end_sites):
+        if np.all(np.isfinite(end)):
+            nodes[joint].children.append(len(nodes))
+            nodes.append(gl.Node(name=f"{skeleton.names[joint]}_end", translation=_floats(end * scale)))
+    world_rest = _rest_positions(skeleton.parents, rest)  # (J, 3)
+    inverse_bind = np.tile(np.eye(4, dtype=np.float32), (skeleton.num_joints, 1, 1))
+    inverse_bind[:, 3, :3] = -world_rest  # column-major: the translation is the last column
+    times = np.arange(motion.num_frames, dtype=np.float64) / motion.fps
+    time_accessor = blob.add(times.astype(np.float32)[:, None], gl.SCALAR, with_bounds=True)
+    channels, samplers = [], []
+    for joint in range(skeleton.num_joints):
+        tracks = [("rotation", quats[:, joint], gl.VEC4)]
+        if np.ptp(translations[:, joint], axis=0).max() > 0:
+            tracks.append(("translation", translations[:, joint], gl.VEC3))
+        for path, values, kind in tracks:
+            samplers.append(
+                gl.AnimationSampler(
+                    input=time_accessor, output=blob.add(values, kind), interpolation="LINEAR"
+                )
+            )
+            channels.append(
+                gl.AnimationChannel(
+                    sampler=len(samplers) - 1, target=gl.AnimationChannelTarget(node=joint, path=path)
+                )
+            )
+    roots = [j for j, parent in enumerate(skeleton.parents) if parent < 0]
+    document = gl.GLTF2(
+        asset=gl.Asset(generator="elastyle", version="2.0"),
+        scene=0,
+        scenes=[gl.Scene(nodes=roots)],
+        nodes=nodes,
+        skins=[
+            gl.Skin(
+                name="skeleton",
+                joints=list(range(skeleton.num_joints)),
+                skeleton=roots[0],
+                inverseBindMatrices=blob.add(inverse_bind.reshape(-1, 16), gl.MAT4),
+            )
+        ],
+        animations=[gl.Animation(name="motion", channels=channels, samplers=samplers)],
+        accessors=blob.accessors,
+        bufferViews=blob.views,
+        buffers=[gl.Buffer(byteLength=len(blob.data))],
+    )
+    document.set_binary_blob(bytes(blob.data))
+    return bytes(b"".join(document.save_to_bytes()))
+
+
+def write_glb(
+    path: str | os.PathLike[str], motion: Motion, force: bool = False, inputs: tuple[str, ...] = ()
+) -> None:
+    """Write a clip as `.glb`, atomically, under the same rules as `write_bvh`."""
+    if not motion.is_finite():
+        raise BvhError(str(path), "the clip holds NaN or infinite values; nothing written")
+    write_bytes_atomic(path, glb_bytes(motion), force=force, inputs=inputs)
+
+
+class _Blob:
+    """The binary chunk: float32 arrays (N, K) end to end (4-byte aligned), with a view and accessor each."""
+
+    def __init__(self) -> None:
+        self.data = bytearray()
+        self.views: list[Any] = []
+        self.accessors: list[Any] = []
+
+    def add(self, values: AnyFloatArray, kind: str, with_bounds: bool = False) -> int:
+        import pygltflib as gl
+
+        array = np.ascontiguousarray(values, dtype=np.float32)
+        offset = len(self.data)
+        self.data += array.tobytes()
+        self.views.append(gl.BufferView(buffer=0, byteOffset=offset, byteLength=array.nbytes))
+        bounds: dict[str, Any] = {}
+        if with_bounds:
+            bounds = {"min": array.min(axis=0).tolist(), "max": array.max(axis=0).tolist()}
+        self.accessors.append(
+            gl.Accessor(
+                bufferView=len(self.views) - 1,
+                componentType=gl.FLOAT,
+                count=array.shape[0],
+                type=kind,
+                **bounds,
+            )
+        )
+        return len(self.accessors) - 1
+
+
+def _rest_positions(parents: Any, offsets: FloatArray) -> FloatArray:
+    """World positions (J, 3) of the rest pose (offsets added down the hierarchy, no rotation)."""
+    world = np.zeros_like(offsets)
+    for joint, parent in enumerate(parents):  # parents come before their children in a BVH
+        world[joint] = offsets[joint] + (world[parent] if parent >= 0 else 0.0)
+    return world
+
+
+def _floats(values: FloatArray) -> list[float]:
+    return [float(v) for v in values]

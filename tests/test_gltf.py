@@ -1,0 +1,116 @@
+"""glTF out, read back by an independent reader (pygltflib) and posed with plain matrix arithmetic here:
+every joint where elastyle's forward kinematics puts it, in metres, at every checked frame."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pygltflib
+import pytest
+
+from elastyle import read_bvh
+from elastyle.core.motion import Motion
+from elastyle.io.dataset import ClipRef
+from elastyle.io.gltf_write import metres_per_unit, write_glb
+from tests.conftest import clip_named
+
+COMPONENTS = {"SCALAR": 1, "VEC3": 3, "VEC4": 4, "MAT4": 16}
+
+
+def _accessor(document: pygltflib.GLTF2, index: int) -> np.ndarray:
+    accessor = document.accessors[index]
+    view = document.bufferViews[accessor.bufferView]
+    assert accessor.componentType == pygltflib.FLOAT
+    start = (view.byteOffset or 0) + (accessor.byteOffset or 0)
+    width = COMPONENTS[accessor.type]
+    data = document.binary_blob()[start : start + 4 * width * accessor.count]
+    return np.frombuffer(data, dtype="<f4").reshape(accessor.count, width).astype(np.float64)
+
+
+def _matrix(translation: np.ndarray, quaternion: np.ndarray) -> np.ndarray:
+    x, y, z, w = quaternion / np.linalg.norm(quaternion)
+    rotation = np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])  # fmt: skip
+    matrix = np.eye(4)
+    matrix[:3, :3], matrix[:3, 3] = rotation, translation
+    return matrix
+
+
+def _posed_joint_positions(path: Path, frame: int) -> dict[str, np.ndarray]:
+    """World position (metres) of every skin joint at keyframe `frame`, from the file alone."""
+    document = pygltflib.GLTF2().load(str(path))
+    local = {
+        index: [
+            np.array(node.translation or [0, 0, 0], float),
+            np.array(node.rotation or [0, 0, 0, 1], float),
+        ]
+        for index, node in enumerate(document.nodes)
+    }
+    animation = document.animations[0]
+    for channel in animation.channels:
+        sampler = animation.samplers[channel.sampler]
+        values = _accessor(document, sampler.output)
+        slot = {"translation": 0, "rotation": 1}[channel.target.path]
+        local[channel.target.node][slot] = values[frame]
+    world: dict[int, np.ndarray] = {}
+
+    def visit(index: int, parent: np.ndarray) -> None:
+        world[index] = parent @ _matrix(*local[index])
+        for child in document.nodes[index].children or []:
+            visit(child, world[index])
+
+    for root in document.scenes[document.scene].nodes:
+        visit(root, np.eye(4))
+    return {document.nodes[j].name: world[j][:3, 3] for j in document.skins[0].joints}
+
+
+def _check(motion: Motion, path: Path) -> None:
+    write_glb(path, motion)
+    document = pygltflib.GLTF2().load(str(path))
+    times = _accessor(document, document.animations[0].samplers[0].input)[:, 0]
+    np.testing.assert_allclose(times, np.arange(motion.num_frames) / motion.fps, atol=1e-5)
+    scale = metres_per_unit(motion)
+    positions = motion.positions() * scale  # (T, J, 3) metres, elastyle's forward kinematics
+    for frame in sorted({0, motion.num_frames // 3, 2 * motion.num_frames // 3, motion.num_frames - 1}):
+        posed = _posed_joint_positions(path, frame)
+        assert list(posed) == list(motion.skeleton.names)
+        ours = np.array([posed[name] for name in motion.skeleton.names])
+        assert np.abs(ours - positions[frame]).max() <= 1e-4, frame  # 0.01 cm
+
+
+@pytest.mark.slow
+def test_a_dataset_clip_and_a_transfer_read_back_where_the_bvh_puts_them(
+    tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005")
+    _check(walk.read()[0], tmp_path / "walk.glb")
+    style = clip_named(dataset_clips, "dataset-2_walk_active_010").name
+    out = tmp_path / "styled.glb"
+    result = subprocess.run(
+        [sys.executable, "-m", "elastyle.cli", "transfer", walk.name, "--style", style, "-o", str(out)],
+        capture_output=True, text=True,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert pygltflib.GLTF2().load(str(out)).animations[0].channels
+
+
+def test_a_three_channel_clip_at_120_fps_in_its_own_unit(three_channel_bvh: Path, tmp_path: Path) -> None:
+    motion, _ = read_bvh(three_channel_bvh)
+    assert motion.fps == 120
+    _check(motion, tmp_path / "tiny.glb")
+
+
+def test_an_unknown_output_format_is_refused(three_channel_bvh: Path, tmp_path: Path) -> None:
+    for name in ("clip.fbx", "clip"):
+        result = subprocess.run(
+            [sys.executable, "-m", "elastyle.cli", "convert", str(three_channel_bvh), "-o", str(tmp_path / name)],
+            capture_output=True, text=True,
+        )  # fmt: skip
+        assert result.returncode == 2 and "name it .bvh or .glb" in result.stderr
+        assert not (tmp_path / name).exists()
