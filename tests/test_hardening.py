@@ -104,9 +104,14 @@ def test_a_thousand_joints_deep_hierarchy_reads(tmp_path: Path) -> None:
     text += "MOTION\nFrames: 2\nFrame Time: 0.033333\n" + (" ".join(["0"] * (3 + 3 * depth)) + "\n") * 2
     deep = tmp_path / "deep.bvh"
     deep.write_text(text)
-    result = _cli("info", str(deep))
-    assert result.returncode == 0, result.stderr
+    for args in (["info", str(deep)], ["convert", str(deep), "-o", str(tmp_path / "again.bvh")],
+                 ["convert", str(deep), "-o", str(tmp_path / "again.glb")]):  # fmt: skip
+        result = _cli(*args)
+        assert result.returncode == 0, result.stderr
     motion = read_bvh(deep)[0]
+    again = read_bvh(tmp_path / "again.bvh")[0]
+    assert again.skeleton.names == motion.skeleton.names
+    np.testing.assert_allclose(again.positions(), motion.positions(), atol=1e-9)
     assert motion.skeleton.num_joints == depth
     assert motion.positions()[0, -1, 1] == pytest.approx(depth - 1)
 

@@ -82,18 +82,24 @@ def write_bvh(
 
 
 def _write_joint(out: io.StringIO, skeleton: Skeleton, layout: BvhLayout, joint: int, depth: int) -> None:
-    indent = "\t" * depth
-    keyword = "ROOT" if skeleton.parents[joint] < 0 else "JOINT"
-    out.write(f"{indent}{keyword} {skeleton.names[joint]}\n{indent}{{\n")
-    out.write(f"{indent}\tOFFSET {_format_vector(skeleton.offsets[joint])}\n")
-    channels = layout.channels[joint]
-    out.write(f"{indent}\tCHANNELS {len(channels)}{''.join(' ' + c for c in channels)}\n")
-    for child in skeleton.children(joint):
-        _write_joint(out, skeleton, layout, child, depth + 1)
-    if not np.any(np.isnan(skeleton.end_sites[joint])):
-        out.write(f"{indent}\tEnd Site\n{indent}\t{{\n")
-        out.write(f"{indent}\t\tOFFSET {_format_vector(skeleton.end_sites[joint])}\n{indent}\t}}\n")
-    out.write(f"{indent}}}\n")
+    """The hierarchy below `joint`, depth first, with an explicit stack (any depth, no recursion limit)."""
+    stack: list[tuple[int, int, bool]] = [(joint, depth, True)]  # (joint, depth, opening)
+    while stack:
+        joint, depth, opening = stack.pop()
+        indent = "\t" * depth
+        if not opening:
+            if not np.any(np.isnan(skeleton.end_sites[joint])):
+                out.write(f"{indent}\tEnd Site\n{indent}\t{{\n")
+                out.write(f"{indent}\t\tOFFSET {_format_vector(skeleton.end_sites[joint])}\n{indent}\t}}\n")
+            out.write(f"{indent}}}\n")
+            continue
+        keyword = "ROOT" if skeleton.parents[joint] < 0 else "JOINT"
+        out.write(f"{indent}{keyword} {skeleton.names[joint]}\n{indent}{{\n")
+        out.write(f"{indent}\tOFFSET {_format_vector(skeleton.offsets[joint])}\n")
+        channels = layout.channels[joint]
+        out.write(f"{indent}\tCHANNELS {len(channels)}{''.join(' ' + c for c in channels)}\n")
+        stack.append((joint, depth, False))
+        stack.extend((child, depth + 1, True) for child in reversed(list(skeleton.children(joint))))
 
 
 def _format_vector(vector: FloatArray) -> str:
