@@ -26,6 +26,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from elastyle.core.body import no_legs_note
 from elastyle.core.motion import Motion
 from elastyle.core.resample import interpolate_rows
 from elastyle.core.threads import one_blas_thread
@@ -78,6 +79,9 @@ def transfer(
     config = TransferConfig.of(config, **options)
     model = model or load_model()
     model.check_clip(content, content_name)
+    note = no_legs_note(content.skeleton, content_name) if config.cleanup else None
+    if note is not None:
+        log.warning("%s", note)
     fps = model.fps
     working = content.resample(fps)
     if working.num_frames < 2:

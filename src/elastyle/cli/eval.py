@@ -61,11 +61,15 @@ def run_eval(args: argparse.Namespace) -> int:
         return 0
     if not (args.output and args.content and args.style):
         raise UsageError("give OUT.bvh --content C.bvh --style S.bvh, or --benchmark DATA")
+    from elastyle.core.body import no_legs_note
     from elastyle.eval.report import transfer_figures
     from elastyle.model.depth import clip_depth
 
     output, content, style = (read_clip(path)[0] for path in (args.output, args.content, args.style))
     figures = transfer_figures(output, content, style)
+    note = no_legs_note(output.skeleton, args.output)
+    if note is not None:
+        log.warning("%s", note)
     model = load_model(args.model)
     for name, motion in ((args.content, content), (args.style, style)):
         if model.skeleton.same_as(motion.skeleton):  # what the model can represent of the inputs

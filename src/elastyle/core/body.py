@@ -1,7 +1,8 @@
 """Body-level conventions: legs and hands, the length unit, which way a skeleton faces, its heading.
 
 Axes: +Y up. The heading yaw is the rotation about +Y that turns +Z into the body's facing direction.
-Legs are found from the skeleton: each left/right pair of the pelvis's children starts a leg, its
+Legs are found from the skeleton: each left/right pair of the pelvis's children starts a leg (by name;
+when no names say left and right, the two chains from the pelvis that mirror each other), its
 deepest joint is the toe and the toe's parent the ankle; thresholds elsewhere are relative to the leg length.
 """
 
@@ -100,13 +101,44 @@ def find_limbs(skeleton: Skeleton) -> Limbs:
     return _LIMBS[skeleton]
 
 
+def _alike_pair(skeleton: Skeleton, joints: list[int]) -> list[int]:
+    """Two of `joints` whose subtrees look like mirror images (the same joint count and depth, bone lengths
+    within 5 %), the longest such pair; empty if none. How limbs are found when no names say left/right."""
+    bone = np.linalg.norm(skeleton.offsets, axis=1)
+
+    def shape(joint: int) -> tuple[int, int, float]:
+        below = [joint]
+        for j in range(joint + 1, skeleton.num_joints):
+            if skeleton.parents[j] in below:
+                below.append(j)
+        depth = 0
+        for j in below:
+            k, steps = j, 0
+            while k != joint:
+                k, steps = int(skeleton.parents[k]), steps + 1
+            depth = max(depth, steps)
+        return len(below), depth, float(bone[below].sum())
+
+    shapes = {j: shape(j) for j in joints}
+    pairs = [
+        (shapes[a][2] + shapes[b][2], a, b)
+        for i, a in enumerate(joints)
+        for b in joints[i + 1 :]
+        if shapes[a][:2] == shapes[b][:2]
+        and abs(shapes[a][2] - shapes[b][2]) <= 0.05 * max(shapes[a][2], 1e-9)
+    ]
+    return list(max(pairs)[1:]) if pairs else []
+
+
 def _limbs_of(skeleton: Skeleton) -> Limbs:
     partner = skeleton.mirror_pairs()
     pelvis = skeleton.pelvis
     legs = [c for c in skeleton.children(pelvis) if partner[c] != c]
+    if not legs:  # no names say left and right: the mirror-image chains
+        legs = _alike_pair(skeleton, list(skeleton.children(pelvis)))
     toes = [_deepest_descendant(skeleton, leg) for leg in legs]
     ankles = [int(skeleton.parents[t]) if skeleton.parents[t] != leg else t for t, leg in zip(toes, legs)]
-    spine = [c for c in skeleton.children(pelvis) if partner[c] == c]
+    spine = [c for c in skeleton.children(pelvis) if partner[c] == c and c not in legs]
     hands: list[int] = []
     if spine:
         below_spine = {spine[0]}
@@ -119,6 +151,11 @@ def _limbs_of(skeleton: Skeleton) -> Limbs:
             for j in sorted(below_spine)
             if partner[j] != j and partner[skeleton.parents[j]] == skeleton.parents[j]
         ]
+        if not roots:  # unnamed: the first branching below the spine with mirror-image chains
+            for j in sorted(below_spine):
+                roots = _alike_pair(skeleton, list(skeleton.children(j)))
+                if roots:
+                    break
         hands = [_deepest_descendant(skeleton, r) for r in roots]
     arrays = [np.array(joints, dtype=np.int64) for joints in (toes, ankles, legs, hands)]
     for array in arrays:
@@ -131,3 +168,13 @@ def leg_length(skeleton: Skeleton, limbs: Limbs) -> float:
     if len(limbs.toes) == 0:
         return skeleton.height() / 2
     return float(np.mean(np.linalg.norm(rest[limbs.hips] - rest[limbs.ankles], axis=-1)))
+
+
+def no_legs_note(skeleton: Skeleton, name: str) -> str | None:
+    """A one-line note when the skeleton's legs cannot be found (feet then go unplanted and unmeasured)."""
+    if len(find_limbs(skeleton).toes):
+        return None
+    return (
+        f"note: {name}: no legs found (no left/right joint names such as LeftUpLeg, Thigh_L, l_hip or 'L Thigh', "
+        "and no mirror-image chains from the pelvis): feet are not planted and foot figures are not measured"
+    )

@@ -25,6 +25,8 @@ def bone_length_error_cm(motion: Motion, reference: Motion) -> float:
     expected = np.linalg.norm(theirs[:, children] - theirs[:, parents[children]], axis=-1)
     # the pelvis's own translation is animated: leave out bones from joints above it
     keep = children > motion.skeleton.pelvis
+    if not np.any(keep):  # no bones below the pelvis: nothing to measure
+        return 0.0
     return float(np.abs(length - expected)[:, keep].max() * centimetres_per_unit(motion.skeleton))
 
 
