@@ -92,3 +92,36 @@ def test_a_skeleton_without_legs_says_so(tmp_path: Path) -> None:
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
     assert "no legs found" in result.stderr and "stick.bvh" in result.stderr
+
+
+REFEREE = Path(__file__).resolve().parents[2] / "shared" / "referee"
+
+
+@pytest.mark.slow
+def test_eval_skating_agrees_with_the_independent_referee(
+    tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
+    """elastyle's floor-based skate against the referee's own code on ten transfer outputs (within 10 %)."""
+    if not (REFEREE / "metrics.py").exists():
+        pytest.skip(f"the referee is not at {REFEREE}")
+    sys.path.insert(0, str(REFEREE))
+    try:
+        import bvh as referee_bvh  # the referee's own reader and metrics, nothing of elastyle's
+        import metrics as referee_metrics
+    finally:
+        sys.path.remove(str(REFEREE))
+    from elastyle import read_bvh, transfer
+    from elastyle.eval.metrics import floor_skating_cm_s
+
+    contents = ["walk_normal_005", "walk-turn-left_normal_010", "run_normal_005", "raise-up-left-hand_normal_005",
+                "walk_normal_010"]  # fmt: skip
+    styles = ["walk_elderly_010", "run_active_020"]
+    for content_name in contents:
+        content, layout = clip_named(dataset_clips, f"dataset-2_{content_name}").read()
+        for style_name in styles:
+            style = clip_named(dataset_clips, f"dataset-2_{style_name}").read()[0]
+            path = tmp_path / f"{content_name}_{style_name}.bvh"
+            write_bvh(path, transfer(content, style).motion, layout)
+            ours = floor_skating_cm_s(read_bvh(path)[0])
+            theirs = referee_metrics.foot_skate(referee_bvh.read_bvh(str(path)))["skate"]
+            assert ours == pytest.approx(theirs, rel=0.1, abs=0.05), path.name

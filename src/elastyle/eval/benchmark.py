@@ -86,6 +86,9 @@ def score_pairs(
         "timing_error_median": float(np.median(errors)),
         "timing_error_mean": float(np.mean(errors)),
         "skating_cm_s": float(np.median([f["skating_output_cm_s"] for f in figures])),
+        "skating_own_contacts_cm_s": float(
+            np.median([f["skating_own_contacts_output_cm_s"] for f in figures])
+        ),
         "jitter_vs_content": float(np.median([f["jitter_vs_content"] for f in figures])),
         "bone_length_error_cm": float(np.max([f["bone_length_error_cm"] for f in figures])),
         "seconds_per_transfer": float(np.mean(seconds)),

@@ -18,13 +18,39 @@ def foot_contacts(motion: Motion, positions: FloatArray | None = None) -> BoolAr
 
 
 def foot_skating_cm_s(motion: Motion, positions: FloatArray | None = None) -> float:
-    """Mean horizontal toe speed (cm/s) over the frames where that foot is in contact."""
+    """Mean horizontal toe speed (cm/s) over the frames where the clean-up's own contact detector finds that
+    foot planted: how well the clean-up pins what it detects (`floor_skating_cm_s` is the honest figure)."""
     positions = motion.positions() if positions is None else positions
     limbs = find_limbs(motion.skeleton)
     contacts = foot_contacts(motion, positions)[1:] & foot_contacts(motion, positions)[:-1]  # (T-1, F)
     velocity = np.diff(positions[:, limbs.toes][:, :, [0, 2]], axis=0) * motion.fps  # (T-1, F, 2)
     speed = np.linalg.norm(velocity, axis=-1) * centimetres_per_unit(motion.skeleton)
     return float(speed[contacts].mean()) if contacts.any() else 0.0
+
+
+FLOOR_BAND_CM = 2.0  # a toe this close to its own floor may be in contact
+FLOOR_VERTICAL_CM_S = 15.0  # ... if it moves up or down slower than this
+
+
+def floor_skating_cm_s(motion: Motion, positions: FloatArray | None = None) -> float:
+    """Mean horizontal toe speed (cm/s) while touching the clip's own floor, found without any contact
+    detector (so a clean-up cannot grade itself): a toe (an ankle on a skeleton without toes) touches in a
+    frame when it is within 2 cm of its own 5th-percentile height and moves vertically slower than 15 cm/s,
+    and the frame counts with weight 2 - 2^(height / 2 cm) (1 on the floor, 0 at 2 cm). NaN without legs."""
+    positions = motion.positions() if positions is None else positions
+    limbs = find_limbs(motion.skeleton)
+    joints = limbs.toes if len(limbs.toes) else limbs.ankles
+    if len(joints) == 0 or motion.num_frames < 2:
+        return float("nan")
+    feet = positions[:, joints] * centimetres_per_unit(motion.skeleton)  # (T, F, 3) cm
+    height = feet[..., 1] - np.percentile(feet[..., 1], 5, axis=0)  # (T, F) above each toe's own floor
+    step = np.gradient(feet, axis=0) * motion.fps  # (T, F, 3) cm/s, central differences
+    touching = (height < FLOOR_BAND_CM) & (np.abs(step[..., 1]) < FLOOR_VERTICAL_CM_S)
+    weight = np.clip(2 - 2 ** (height / FLOOR_BAND_CM), 0.0, 1.0) * touching
+    if weight.sum() <= 0:
+        return 0.0
+    speed = np.linalg.norm(step[..., [0, 2]], axis=-1)
+    return float((weight * speed).sum() / weight.sum())
 
 
 def jerk(positions: FloatArray, fps: float) -> float:

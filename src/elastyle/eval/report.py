@@ -9,6 +9,7 @@ from elastyle.eval.metrics import (
     arm_swing_hz,
     cadence_steps_s,
     centimetres_per_unit,
+    floor_skating_cm_s,
     foot_skating_cm_s,
     jerk,
     timing_error,
@@ -42,7 +43,8 @@ def transfer_figures(output: Motion, content: Motion, style: Motion) -> dict[str
     figures["timing_error"] = timing_error(cadence["output"], cadence["content"], cadence["style"])
     for name, motion in (("output", output), ("content", content), ("style", style)):
         figures[f"arm_swing_{name}_hz"] = arm_swing_hz(motion, positions[name])
-        figures[f"skating_{name}_cm_s"] = foot_skating_cm_s(motion, positions[name])
+        figures[f"skating_{name}_cm_s"] = floor_skating_cm_s(motion, positions[name])
+        figures[f"skating_own_contacts_{name}_cm_s"] = foot_skating_cm_s(motion, positions[name])
     figures["jitter_vs_content"] = jerk(positions["output"], output.fps) / max(
         jerk(positions["content"], content.fps), 1e-9
     )

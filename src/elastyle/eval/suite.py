@@ -110,13 +110,14 @@ def markdown_table(report: dict[str, Any]) -> str:
         f"{len(report['pairs'])} held-out pairs (neutral walk -> other style, cadence gap >= 0.15 steps/s). "
         f"Classifiers' own held-out accuracy: style {accuracy['style']:.2f}, content {accuracy['content']:.2f}.",
         "",
-        "| method | timing error (median) | foot skating cm/s | jitter vs content | bone length error cm "
-        "| style recognised | content recognised |",
-        "|---|---|---|---|---|---|---|",
+        "| method | timing error (median) | foot skating cm/s (floor) | (own contacts) | jitter vs content "
+        "| bone length error cm | style recognised | content recognised |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for row in report["rows"]:
         lines.append(
             f"| {row['method']} | {row['timing_error_median']:.2f} | {row['skating_cm_s']:.1f} | "
+            f"{row['skating_own_contacts_cm_s']:.1f} | "
             f"{row['jitter_vs_content']:.2f} | {row['bone_length_error_cm']:.4f} | {row['style_accuracy']:.2f} | "
             f"{row['content_accuracy']:.2f} |"
         )
