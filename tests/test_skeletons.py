@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from elastyle import write_bvh
+from elastyle import read_bvh, write_bvh
 from elastyle.core.body import find_limbs
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
@@ -73,8 +73,6 @@ def test_legs_feet_and_cadence_on_any_naming(walk: Motion, scheme: str) -> None:
 
 
 def test_a_skeleton_without_legs_says_so(tmp_path: Path) -> None:
-    from elastyle import read_bvh
-
     good = tmp_path / "good.bvh"
     good.write_text(THREE_CHANNEL_BVH)
     motion = read_bvh(good)[0]
@@ -110,7 +108,7 @@ def test_eval_skating_agrees_with_the_independent_referee(
         import metrics as referee_metrics
     finally:
         sys.path.remove(str(REFEREE))
-    from elastyle import read_bvh, transfer
+    from elastyle import transfer
     from elastyle.eval.metrics import floor_skating_cm_s
 
     contents = ["walk_normal_005", "walk-turn-left_normal_010", "run_normal_005", "raise-up-left-hand_normal_005",
@@ -125,3 +123,110 @@ def test_eval_skating_agrees_with_the_independent_referee(
             ours = floor_skating_cm_s(read_bvh(path)[0])
             theirs = referee_metrics.foot_skate(referee_bvh.read_bvh(str(path)))["skate"]
             assert ours == pytest.approx(theirs, rel=0.1, abs=0.05), path.name
+
+
+def _with_hip_joints(motion: Motion) -> Motion:
+    """The walk on a CMU-style skeleton: `Hips` the 6-channel root (the file's ground-level root folded
+    into it), LHipJoint / RHipJoint inserted between the hips and each thigh (carrying the thigh's offset,
+    never rotating), every joint renamed the CMU way, constant offsets elsewhere (3-channel joints)."""
+    from elastyle.core.rotations import from_matrix
+
+    skeleton = motion.skeleton
+    hips, thighs = skeleton.index("Hips"), [skeleton.index("UpperLeg_L"), skeleton.index("UpperLeg_R")]
+    order: list[int] = []  # old joint per new joint; -1 - k for the hip joint inserted before thighs[k]
+    for joint in range(hips, skeleton.num_joints):
+        if joint in thighs:
+            order.append(-1 - thighs.index(joint))
+        order.append(joint)
+    new_index = {old: new for new, old in enumerate(order)}
+    offsets_now = motion.translations[0]  # the file's (constant) joint translations
+    names, parents, offsets, ends = [], [], [], []
+    for new, old in enumerate(order):
+        if old < 0:
+            thigh = thighs[-1 - old]
+            names.append("LHipJoint" if old == -1 else "RHipJoint")
+            parents.append(new_index[int(skeleton.parents[thigh])])
+            offsets.append(offsets_now[thigh])
+            ends.append(np.full(3, np.nan))
+        else:
+            names.append(CMU[skeleton.names[old]])
+            parents.append(
+                -1 if old == hips else new - 1 if old in thighs else new_index[int(skeleton.parents[old])]
+            )
+            offsets.append(np.zeros(3) if old in thighs or old == hips else offsets_now[old])
+            ends.append(skeleton.end_sites[old])
+    cmu = Skeleton(tuple(names), np.array(parents), np.array(offsets), np.array(ends))
+    rotations = np.zeros((motion.num_frames, len(order), 3))
+    translations = np.broadcast_to(cmu.offsets, rotations.shape).copy()
+    world_rotations, world_positions = motion.world([hips])
+    rotations[:, 0] = from_matrix(world_rotations[:, hips])
+    translations[:, 0] = world_positions[:, hips]
+    for new, old in enumerate(order[1:], start=1):
+        if old >= 0:
+            rotations[:, new] = motion.rotations[:, old]
+    return Motion(cmu, rotations, translations, motion.fps)
+
+
+@pytest.mark.slow
+def test_a_cmu_skeleton_at_120_fps_end_to_end(tmp_path: Path, dataset_clips: list[ClipRef]) -> None:
+    """Renamed the CMU way, hip joints inserted, 3-channel joints, 120 fps: a model trained on it by
+    `elastyle train --steps`, then a transfer whose legs are found and feet planted, and whose cadence the
+    referee's definition confirms."""
+    clips = {}
+    for stem in (
+        "walk_normal_005",
+        "walk_normal_010",
+        "walk_elderly_010",
+        "walk_active_020",
+        "walk_normal_015",
+    ):
+        walk = _with_hip_joints(clip_named(dataset_clips, f"dataset-2_{stem}").read()[0]).resample(120)
+        clips[stem] = tmp_path / f"cmu_{stem}.bvh"
+        write_bvh(clips[stem], walk)  # the default layout: a 6-channel root, 3-channel ZXY joints
+    assert read_bvh(clips["walk_normal_005"])[1].channels[1] == ("Zrotation", "Xrotation", "Yrotation")
+    np.testing.assert_allclose(  # the inserted joints change nothing: the same feet
+        read_bvh(clips["walk_normal_005"])[0].resample(30).positions()[:, -1],
+        clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0].positions()[:, -1],
+        atol=1e-6,
+    )
+    model = tmp_path / "cmu.npz"
+    train = [str(p) for p in clips.values()]
+    result = _cli("train", *train, "-o", str(model), "--steps", "30", "--batch-size", "4", "--no-progress")
+    assert result.returncode == 0, result.stderr
+    outputs = {}
+    for cleanup in ("", "--no-cleanup"):
+        out = tmp_path / f"out{cleanup}.bvh"
+        args = [str(clips["walk_normal_005"]), "--style", str(clips["walk_elderly_010"]), "-o", str(out)]
+        result = _cli("transfer", *args, "--model", str(model), *([cleanup] if cleanup else []))
+        assert result.returncode == 0, result.stderr
+        assert "no legs found" not in result.stderr
+        outputs[cleanup] = read_bvh(out)[0]
+    from elastyle.eval.metrics import floor_skating_cm_s
+
+    assert floor_skating_cm_s(outputs[""]) < floor_skating_cm_s(outputs["--no-cleanup"])  # the clean-up acts
+    if (REFEREE / "metrics.py").exists():
+        sys.path.insert(0, str(REFEREE))
+        try:
+            import bvh as referee_bvh
+            import metrics as referee_metrics
+        finally:
+            sys.path.remove(str(REFEREE))
+        theirs = referee_metrics.cadence(referee_bvh.read_bvh(str(tmp_path / "out.bvh")))["cadence"]
+        assert cadence_steps_s(outputs[""]) == pytest.approx(theirs, rel=0.1)
+
+
+def _cli(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "elastyle.cli", *args], capture_output=True, text=True)
+
+
+@pytest.mark.slow
+def test_the_same_pair_skates_alike_at_30_and_60_fps(dataset_clips: list[ClipRef]) -> None:
+    from elastyle import transfer
+    from elastyle.eval.metrics import floor_skating_cm_s
+
+    style = clip_named(dataset_clips, "dataset-2_walk_elderly_010").read()[0]
+    for stem in ("dataset-2_walk_normal_005", "dataset-2_run_normal_005"):
+        content = clip_named(dataset_clips, stem).read()[0]
+        at_30 = floor_skating_cm_s(transfer(content, style).motion)
+        at_60 = floor_skating_cm_s(transfer(content.resample(60), style).motion)
+        assert at_60 == pytest.approx(at_30, rel=0.2), stem
