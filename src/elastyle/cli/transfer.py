@@ -3,21 +3,19 @@
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import math
-import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, Any
 
+from elastyle.cli.batch import Job, run_local, run_on_dask, transfer_one
 from elastyle.cli.options import add_config_flags, config_from_args
 from elastyle.core.motion import Motion
-from elastyle.errors import BvhError, ElastyleError, OutputError, UsageError
+from elastyle.errors import BvhError, OutputError, UsageError
 from elastyle.io.dataset import ClipRef
 from elastyle.steps.config import TransferConfig
 
 if TYPE_CHECKING:
-    from elastyle.model.file import StyleModel
     from elastyle.steps.library import StyleLibrary
     from elastyle.steps.schedule import Schedule
 
@@ -55,11 +53,21 @@ def add_transfer_command(commands: Any) -> None:
         "--jobs", type=int, default=None, metavar="N",
         help="processes for several content clips (default: one per core)",
     )  # fmt: skip
+    parser.add_argument(
+        "--scheduler", metavar="ADDRESS",
+        help="run several content clips on this Dask cluster (tcp://host:8786; elastyle[dask]); the output "
+        "folder must be one the workers see",
+    )  # fmt: skip
+    parser.add_argument(
+        "--skip-existing",
+        action="store_true",
+        help="several content clips: leave outputs that exist (resume)",
+    )
     parser.add_argument("--force", action="store_true", help="overwrite existing output files")
     parser.set_defaults(run=run_transfer)
 
 
-def _outputs(args: argparse.Namespace) -> list[Path]:
+def _outputs(args: argparse.Namespace) -> tuple[list[str], list[Path]]:
     from elastyle.io.clip_write import check_output_format
     from elastyle.io.files import check_output_path
 
@@ -71,7 +79,7 @@ def _outputs(args: argparse.Namespace) -> list[Path]:
     as_folder = args.output.endswith(("/", "\\")) or output.is_dir()
     if len(contents) == 1 and not as_folder:
         check_output_format(output)
-        return [check_output_path(output, force=args.force, inputs=inputs)]
+        return contents, [check_output_path(output, force=args.force, inputs=inputs)]
     if not as_folder:
         raise UsageError(f"{args.output}: several content clips need an output folder: -o {args.output}/")
     if not output.is_dir():
@@ -83,7 +91,12 @@ def _outputs(args: argparse.Namespace) -> list[Path]:
     targets = [output / (Path(c).stem + ".bvh") for c in contents]
     if len(set(targets)) != len(targets):
         raise OutputError(f"{output}: two content clips share a file name")
-    return [check_output_path(t, force=args.force, inputs=inputs) for t in targets]
+    if args.skip_existing and not args.force:
+        kept = [(c, t) for c, t in zip(contents, targets) if not t.exists()]
+        if len(kept) < len(contents):
+            log.info("note: %d of %d outputs exist and are skipped", len(contents) - len(kept), len(contents))
+        contents, targets = [c for c, _ in kept], [t for _, t in kept]
+    return contents, [check_output_path(t, force=args.force, inputs=inputs) for t in targets]
 
 
 def _check_inputs_readable(specs: tuple[str, ...]) -> None:
@@ -113,7 +126,7 @@ def run_transfer(args: argparse.Namespace) -> int:
 
     config = config_from_args(TransferConfig, args)  # validated once: a bad value is a UsageError
     _check_style_options(args)
-    targets = _outputs(args)
+    contents, targets = _outputs(args)
     _check_inputs_readable(_inputs(args))
     if args.explain:
         check_output_path(args.explain, force=args.force, inputs=(*_inputs(args), *map(str, targets)))
@@ -142,90 +155,15 @@ def run_transfer(args: argparse.Namespace) -> int:
         second = library(args.blend_style)
         second_weight = Schedule.constant(0.5 if args.blend is None else args.blend)
 
-    job = _Job(style, model, config, second, second_weight, args.force, args.explain, _inputs(args))
+    job = Job(style, model, config, second, second_weight, args.force, args.explain, _inputs(args))
     if len(args.content) == 1:
-        _transfer_one(job, args.content[0], targets[0])
+        transfer_one(job, args.content[0], targets[0])
         return 0
-    return _transfer_batch(job, args.content, targets, args.jobs)
-
-
-class _Job(NamedTuple):
-    """Everything a content clip's transfer needs besides the clip: shared by the batch's workers."""
-
-    style: StyleLibrary
-    model: StyleModel
-    config: TransferConfig
-    second: StyleLibrary | None
-    second_weight: Schedule
-    force: bool
-    explain: str | None
-    inputs: tuple[str, ...]  # what the command reads: never written
-
-
-def _transfer_one(job: _Job, content_spec: str, target: Path) -> None:
-    from elastyle.io.clip_write import write_clip
-    from elastyle.io.dataset import read_clip
-    from elastyle.io.files import write_text_atomic
-    from elastyle.pipeline import transfer
-
-    motion, layout = read_clip(content_spec)
-    result = transfer(
-        motion, job.style, job.config, model=job.model, second_style=job.second,
-        second_weight=job.second_weight, content_name=content_spec,
-    )  # fmt: skip
-    write_clip(target, result.motion, layout, force=job.force, inputs=job.inputs)
-    if job.explain:
-        explain = dict(result.explain, content=content_spec, output=str(target))
-        write_text_atomic(
-            job.explain, json.dumps(explain, indent=1), force=job.force, inputs=(*job.inputs, str(target))
-        )
-    log.info("wrote %s (%d frames, %.2f s; content %.2f s)", target, result.motion.num_frames,
-             result.motion.duration_s, motion.duration_s)  # fmt: skip
-
-
-_WORKER_JOB: list[_Job] = []
-
-
-def _worker_start(job: _Job) -> None:
-    _WORKER_JOB[:] = [job]
-    logging.getLogger("elastyle").setLevel(logging.WARNING)
-
-
-def _worker_transfer(task: tuple[str, Path]) -> str | None:
-    """One batch item in a worker process: None, or the one-line error."""
-    try:
-        _transfer_one(_WORKER_JOB[0], *task)
-        return None
-    except ElastyleError as error:
-        return str(error)
-
-
-def _transfer_batch(job: _Job, contents: list[str], targets: list[Path], jobs: int | None) -> int:
-    """Many content clips with the style encoded once, on `jobs` processes (every core by default), with a
-    progress bar on a terminal; one line per failed clip, and the others still finish."""
-    import multiprocessing
-    import os
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
-    from tqdm import tqdm
-
-    workers = max(1, min(len(contents), jobs or os.cpu_count() or 1))
-    context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
-    failures = 0
-    with (
-        ProcessPoolExecutor(workers, mp_context=context, initializer=_worker_start, initargs=(job,)) as pool,
-        tqdm(total=len(contents), unit="clip", desc="transfer", disable=None, dynamic_ncols=True) as bar,
-    ):
-        futures = {pool.submit(_worker_transfer, task): task[0] for task in zip(contents, targets)}
-        for future in as_completed(futures):
-            error = future.result()
-            if error is not None:
-                failures += 1
-                bar.write(f"elastyle: error: {error}", file=sys.stderr)
-            log.debug("%s%s", futures[future], " failed" if error else " done")
-            bar.update()
-    log.info("%d of %d clips transferred", len(contents) - failures, len(contents))
-    return 1 if failures else 0
+    if not contents:
+        return 0
+    if args.scheduler:
+        return run_on_dask(job, contents, targets, args.scheduler)
+    return run_local(job, contents, targets, args.jobs)
 
 
 def _check_style_options(args: argparse.Namespace) -> None:

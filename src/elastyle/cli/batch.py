@@ -1,0 +1,132 @@
+"""Running a transfer over many content clips: one clip (`transfer_one`), the cores of this computer
+(`run_local`), or an existing Dask cluster (`run_on_dask`, `elastyle[dask]`). The style library is encoded
+once and shared: inherited by forked local workers, scattered once to every Dask worker. Each clip's
+output is written atomically by whoever transfers it (on a cluster: the workers, so the output folder must
+be one they all see), under the same `--force` and never-overwrite-an-input rules; a failed clip is one
+error line and the others still finish."""
+
+from __future__ import annotations
+
+import json
+import logging
+import sys
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+from elastyle.errors import ElastyleError, UsageError
+
+if TYPE_CHECKING:
+    from elastyle.model.file import StyleModel
+    from elastyle.steps.config import TransferConfig
+    from elastyle.steps.library import StyleLibrary
+    from elastyle.steps.schedule import Schedule
+
+log = logging.getLogger("elastyle")
+CONNECT_TIMEOUT_S = 20  # how long to wait for a Dask scheduler to answer
+
+
+class Job(NamedTuple):
+    """Everything a content clip's transfer needs besides the clip: shared by the batch's workers."""
+
+    style: StyleLibrary
+    model: StyleModel
+    config: TransferConfig
+    second: StyleLibrary | None
+    second_weight: Schedule
+    force: bool
+    explain: str | None
+    inputs: tuple[str, ...]  # what the command reads: never written
+
+
+def transfer_one(job: Job, content_spec: str, target: Path) -> None:
+    """Read one content clip, transfer it and write its output (and explain file) atomically."""
+    from elastyle.io.clip_write import write_clip
+    from elastyle.io.dataset import read_clip
+    from elastyle.io.files import write_text_atomic
+    from elastyle.pipeline import transfer
+
+    motion, layout = read_clip(content_spec)
+    result = transfer(
+        motion, job.style, job.config, model=job.model, second_style=job.second,
+        second_weight=job.second_weight, content_name=content_spec,
+    )  # fmt: skip
+    write_clip(target, result.motion, layout, force=job.force, inputs=job.inputs)
+    if job.explain:
+        explain = dict(result.explain, content=content_spec, output=str(target))
+        write_text_atomic(
+            job.explain, json.dumps(explain, indent=1), force=job.force, inputs=(*job.inputs, str(target))
+        )
+    log.info("wrote %s (%d frames, %.2f s; content %.2f s)", target, result.motion.num_frames,
+             result.motion.duration_s, motion.duration_s)  # fmt: skip
+
+
+def transfer_task(job: Job, content_spec: str, target: Path) -> str | None:
+    """One batch item wherever it runs: None, or the one-line error."""
+    try:
+        transfer_one(job, content_spec, target)
+        return None
+    except ElastyleError as error:
+        return str(error)
+
+
+_WORKER_JOB: list[Job] = []
+
+
+def _worker_start(job: Job) -> None:
+    _WORKER_JOB[:] = [job]
+    logging.getLogger("elastyle").setLevel(logging.WARNING)
+
+
+def _worker_transfer(task: tuple[str, Path]) -> str | None:
+    return transfer_task(_WORKER_JOB[0], *task)
+
+
+def run_local(job: Job, contents: list[str], targets: list[Path], jobs: int | None) -> int:
+    """Many content clips on `jobs` processes of this computer (every core by default)."""
+    import multiprocessing
+    import os
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    workers = max(1, min(len(contents), jobs or os.cpu_count() or 1))
+    context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
+    with ProcessPoolExecutor(workers, mp_context=context, initializer=_worker_start, initargs=(job,)) as pool:
+        futures = {pool.submit(_worker_transfer, task): task[0] for task in zip(contents, targets)}
+        return _report(as_completed(futures), futures, lambda future: future.result())
+
+
+def run_on_dask(job: Job, contents: list[str], targets: list[Path], address: str) -> int:
+    """Many content clips as tasks of the Dask cluster at `address` (the job scattered to every worker
+    once; a task whose worker dies is run again elsewhere)."""
+    try:
+        from distributed import Client, as_completed
+    except ImportError:
+        raise UsageError('--scheduler needs Dask: pip install "elastyle[dask]"') from None
+    try:
+        client = Client(address, timeout=f"{CONNECT_TIMEOUT_S}s")
+    except (OSError, TimeoutError) as error:
+        raise ElastyleError(f"{address}: cannot reach the Dask scheduler ({error})") from None
+    with client:
+        shared = client.scatter(job, broadcast=True)
+        futures = {
+            client.submit(transfer_task, shared, content, target, pure=False, retries=2): content
+            for content, target in zip(contents, targets)
+        }
+        return _report(as_completed(futures), futures, lambda future: future.result())
+
+
+def _report(done: Iterable[Any], names: dict[Any, str], result: Callable[[Any], str | None]) -> int:
+    """Progress over finished tasks (a bar on a terminal), one error line per failed clip; the exit code."""
+    from tqdm import tqdm
+
+    failures = 0
+    with tqdm(total=len(names), unit="clip", desc="transfer", disable=None, dynamic_ncols=True) as bar:
+        for future in done:
+            error = result(future)
+            if error is not None:
+                failures += 1
+                bar.write(f"elastyle: error: {error}", file=sys.stderr)
+            log.debug("%s%s", names[future], " failed" if error else " done")
+            bar.update()
+    log.info("%d of %d clips transferred", len(names) - failures, len(names))
+    return 1 if failures else 0

@@ -1,0 +1,103 @@
+"""A batch on a real Dask cluster (a scheduler and two workers started here, no mock): byte-identical to
+the local run, one error line for a bad clip, and --skip-existing resumes."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from elastyle.io.dataset import ClipRef
+from tests.conftest import THREE_CHANNEL_BVH, clip_named
+
+pytest.importorskip("distributed", reason='Dask is an extra: pip install "elastyle[dask]"')
+
+CONTENTS = ["walk_normal_005", "walk_normal_010", "run_normal_005", "walk-turn-left_normal_005",
+            "wave-left-hand_normal_005", "raise-up-both-hands_normal_005"]  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def cluster(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    """A Dask scheduler and two one-thread workers as separate processes; yields the scheduler address."""
+    folder = tmp_path_factory.mktemp("dask")
+    scheduler_file = folder / "scheduler.json"
+    dask = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
+    worker = [sys.executable, "-m", "distributed.cli.dask_worker", "--scheduler-file", str(scheduler_file),
+              "--nthreads", "1", "--no-dashboard", "--memory-limit", "0"]  # fmt: skip
+    processes = [subprocess.Popen([*dask, "--scheduler-file", str(scheduler_file), "--port", "0",
+                                   "--dashboard-address", ":0"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                  start_new_session=True)]  # fmt: skip
+    try:
+        for _ in range(300):
+            if scheduler_file.exists() and scheduler_file.read_text().strip():
+                break
+            time.sleep(0.1)
+        address = json.loads(scheduler_file.read_text())["address"]
+        processes += [subprocess.Popen(worker, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                       start_new_session=True) for _ in range(2)]  # fmt: skip
+        from distributed import Client
+
+        with Client(address, timeout="30s") as client:
+            client.wait_for_workers(2, timeout=60)
+        yield address
+    finally:
+        for process in processes:
+            os.killpg(process.pid, signal.SIGTERM)
+        for process in processes:
+            process.wait(timeout=30)
+
+
+def _transfer(contents: list[str], style: str, output: Path, *extra: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "elastyle.cli", "transfer", *contents, "--style", style, "-o", f"{output}/", *extra],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+
+
+@pytest.mark.slow
+def test_a_batch_on_a_dask_cluster_matches_the_local_run(
+    cluster: str, tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
+    contents = [clip_named(dataset_clips, f"dataset-2_{stem}").name for stem in CONTENTS]
+    style = clip_named(dataset_clips, "dataset-2_walk_elderly_010").name
+    local, remote = tmp_path / "local", tmp_path / "dask"
+    assert _transfer(contents, style, local).returncode == 0
+    result = _transfer(contents, style, remote, "--scheduler", cluster)
+    assert result.returncode == 0, result.stderr
+    names = sorted(p.name for p in local.iterdir())
+    assert len(names) == 6 and names == sorted(p.name for p in remote.iterdir())
+    for name in names:
+        assert (remote / name).read_bytes() == (local / name).read_bytes(), name
+    # a bad clip: one error line naming it, the others written, exit 1; then --skip-existing resumes
+    bad = tmp_path / "bad.bvh"
+    bad.write_text(THREE_CHANNEL_BVH)
+    mixed = tmp_path / "mixed"
+    result = _transfer([contents[0], str(bad)], style, mixed, "--scheduler", cluster)
+    assert result.returncode == 1
+    errors = [line for line in result.stderr.splitlines() if line.startswith("elastyle: error:")]
+    assert len(errors) == 1 and "bad.bvh" in errors[0] and "skeleton differs" in errors[0]
+    assert sorted(p.name for p in mixed.iterdir()) == [Path(contents[0]).stem + ".bvh"]
+    before = (mixed / (Path(contents[0]).stem + ".bvh")).stat().st_mtime_ns
+    result = _transfer(contents[:2], style, mixed, "--scheduler", cluster, "--skip-existing")
+    assert result.returncode == 0, result.stderr
+    assert "1 of 2 outputs exist and are skipped" in result.stderr
+    assert (mixed / (Path(contents[0]).stem + ".bvh")).stat().st_mtime_ns == before
+    assert (mixed / (Path(contents[1]).stem + ".bvh")).read_bytes() == (
+        local / (Path(contents[1]).stem + ".bvh")
+    ).read_bytes()
+
+
+def test_an_unreachable_scheduler_is_one_line(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from elastyle.cli import batch
+    from elastyle.cli.batch import run_on_dask
+
+    monkeypatch.setattr(batch, "CONNECT_TIMEOUT_S", 2)
+    with pytest.raises(Exception, match="cannot reach the Dask scheduler"):
+        run_on_dask(None, ["x"], [tmp_path / "x.bvh"], "tcp://127.0.0.1:9")  # type: ignore[arg-type]
