@@ -114,3 +114,38 @@ def test_an_unknown_output_format_is_refused(three_channel_bvh: Path, tmp_path: 
         )  # fmt: skip
         assert result.returncode == 2 and "name it .bvh or .glb" in result.stderr
         assert not (tmp_path / name).exists()
+
+
+def test_glb_in_reads_back_what_glb_out_wrote(three_channel_bvh: Path, tmp_path: Path) -> None:
+    from elastyle.io.dataset import read_clip
+
+    motion, _ = read_bvh(three_channel_bvh)
+    path = tmp_path / "tiny.glb"
+    write_glb(path, motion)
+    back, layout = read_clip(path)
+    scale = metres_per_unit(motion)
+    assert back.skeleton.names == motion.skeleton.names and back.fps == motion.fps
+    np.testing.assert_array_equal(back.skeleton.parents, motion.skeleton.parents)
+    np.testing.assert_allclose(back.positions(), motion.positions() * scale, atol=1e-6)
+    np.testing.assert_allclose(back.skeleton.end_sites, motion.skeleton.end_sites * scale, atol=1e-6)
+    assert layout.channels[0][:3] == ("Xposition", "Yposition", "Zposition")
+    again = tmp_path / "again.bvh"
+    result = subprocess.run(
+        [sys.executable, "-m", "elastyle.cli", "convert", str(path), "-o", str(again)],
+        capture_output=True,
+        text=True,
+    )
+    assert result.returncode == 0, result.stderr
+    np.testing.assert_allclose(read_bvh(again)[0].positions(), motion.positions() * scale, atol=1e-5)
+
+
+def test_a_damaged_glb_is_one_line(three_channel_bvh: Path, tmp_path: Path) -> None:
+    motion, _ = read_bvh(three_channel_bvh)
+    path = tmp_path / "cut.glb"
+    write_glb(path, motion)
+    path.write_bytes(path.read_bytes()[:300])
+    result = subprocess.run(
+        [sys.executable, "-m", "elastyle.cli", "info", str(path)], capture_output=True, text=True
+    )
+    assert result.returncode == 1 and "cut.glb" in result.stderr and "Traceback" not in result.stderr
+    assert result.stderr.count("\n") == 1, result.stderr

@@ -194,11 +194,13 @@ def test_view_command_reports_a_missing_clip_in_one_line(tmp_path: Path) -> None
     assert result.stderr.count("\n") == 1  # one line, no traceback
 
 
-def run_chromium(url: str, profile: Path, *mode: str) -> subprocess.CompletedProcess[str]:
+def run_chromium(
+    url: str, profile: Path, *mode: str, budget: str = "2500"
+) -> subprocess.CompletedProcess[str]:
     command = [
         str(CHROMIUM), "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
         "--disable-component-update", "--no-first-run", "--no-proxy-server", "--hide-scrollbars",
-        f"--user-data-dir={profile}", f"--window-size={WINDOW[0]},{WINDOW[1]}", "--virtual-time-budget=2500",
+        f"--user-data-dir={profile}", f"--window-size={WINDOW[0]},{WINDOW[1]}", f"--virtual-time-budget={budget}",
         *mode, url,
     ]  # fmt: skip
     result = subprocess.run(command, capture_output=True, text=True, timeout=120)
@@ -294,3 +296,37 @@ def test_idle_and_flooding_connections_are_bounded_and_closed(
         server.server_close()
         thread.join(timeout=5)
     assert "Traceback" not in capfd.readouterr().err
+
+
+@pytest.mark.slow
+def test_headless_browser_plays_a_glb(
+    dataset_clips: list[ClipRef], serve: Callable[[dict[str, Any]], str], tmp_path: Path
+) -> None:
+    """glTF out, read back and shown moving: the viewer plays a .glb (the frame counter advances, the
+    skeleton is drawn in its colours, a foot moves on screen between two moments)."""
+    if not CHROMIUM.exists():
+        pytest.skip(f"{CHROMIUM} not found: install chromium (apt-get install chromium) for the browser test")
+    Image = pytest.importorskip("PIL.Image", reason="reading the screenshot needs Pillow")
+    from elastyle.io.dataset import read_clip
+    from elastyle.io.gltf_write import write_glb
+
+    path = tmp_path / "walk.glb"
+    write_glb(path, clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0].slice(0, 150))
+    motion, _ = read_clip(path)
+    url = serve(build_payload([motion], ["walk.glb"]))
+    dom = run_chromium(url, tmp_path / "profile-dom", "--dump-dom").stdout
+    assert 'data-ready="1"' in dom and "walk.glb  frame" in dom
+    frame = re.search(r'data-frame="(\d+)"', dom)
+    assert frame and int(frame.group(1)) > 30, "the timeline did not advance"
+    shots = []
+    for budget in ("500", "1500"):
+        shot = tmp_path / f"view{budget}.png"
+        run_chromium(url, tmp_path / f"profile-{budget}", f"--screenshot={shot}", budget=budget)
+        shots.append(np.asarray(Image.open(shot).convert("RGB"), dtype=np.float64)[100 : WINDOW[1] - 60])
+    for colour in ("#1f6fd1", "#d1431f"):  # left and right bones
+        assert colour_pixels(shots[1], colour) > 40, colour
+    moved = [
+        np.argwhere(np.linalg.norm(shot - np.array([0x1F, 0x6F, 0xD1]), axis=-1) < 40).mean(axis=0)
+        for shot in shots
+    ]
+    assert np.linalg.norm(moved[1] - moved[0]) > 2.0  # the left side's pixels moved between 0.5 s and 1.5 s

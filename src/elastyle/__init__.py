@@ -1,7 +1,7 @@
 """elastyle: zero-shot motion style transfer with elastic patches.
 
 The public API:
-    read_bvh, write_bvh, BvhLayout, Motion, Skeleton    clips in and out
+    read_bvh, write_bvh, BvhLayout, Motion, Skeleton    clips in and out (read_bvh: BVH or .glb, also in a zip)
     transfer, TransferConfig, TransferResult            the transfer (`elastyle.pipeline` shows its steps)
     load_model, prepare_style, StyleLibrary             a model, and a style library encoded once for reuse
     mirror, find_clips, forward_kinematics              data helpers
@@ -21,9 +21,9 @@ from elastyle.errors import (
     SkeletonMismatchError,
 )
 from elastyle.io.bvh_layout import BvhLayout
-from elastyle.io.bvh_read import read_bvh
 from elastyle.io.bvh_write import write_bvh
 from elastyle.io.dataset import find_clips
+from elastyle.io.dataset import read_clip as read_bvh  # a BVH or .glb file, also a path inside a zip archive
 from elastyle.model.file import load_model
 from elastyle.pipeline import TransferResult, transfer
 from elastyle.steps.config import TransferConfig

@@ -85,8 +85,9 @@ def _print_figures(figures: dict[str, float], as_json: bool) -> None:
     if as_json:
         print(json.dumps(figures, indent=1))
         return
+    width = max(map(len, figures), default=0) + 2
     for key, value in figures.items():
-        print(f"  {key:<28}{value:>10.3f}")
+        print(f"  {key:<{width}}{value:>10.3f}")
 
 
 def run_demo(args: argparse.Namespace) -> int:

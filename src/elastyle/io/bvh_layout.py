@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import NamedTuple
 
 from elastyle.core.skeleton import Skeleton
@@ -21,11 +22,12 @@ class BvhLayout(NamedTuple):
     frame_time_s: float
 
     @staticmethod
-    def default(skeleton: Skeleton, fps: float) -> BvhLayout:
-        """A 6-channel root and 3-channel ZXY joints, for clips that came from no file."""
-        root = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
+    def default(skeleton: Skeleton, fps: float, moving: Sequence[int] = ()) -> BvhLayout:
+        """A 6-channel root and 3-channel ZXY joints, for clips that came from no BVH file; the joints in
+        `moving` (whose translations are animated) get position channels too."""
+        placed = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
         joint = ("Zrotation", "Xrotation", "Yrotation")
-        channels = tuple(root if j == 0 else joint for j in range(skeleton.num_joints))
+        channels = tuple(placed if j == 0 or j in moving else joint for j in range(skeleton.num_joints))
         return BvhLayout(channels, 1.0 / fps)
 
 

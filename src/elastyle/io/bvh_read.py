@@ -80,11 +80,16 @@ def parse_bvh(data: bytes, name: str) -> tuple[Motion, BvhLayout]:
         raise BvhError(name, f"not a BVH file: starts with {tokens[0][:20]!r}, expected HIERARCHY", line)
     skeleton, channels = _parse_hierarchy(reader)
     motion_values, frame_time_s = _parse_motion(reader, sum(len(c) for c in channels))
-    fps = 1.0 / frame_time_s
-    if abs(fps - round(fps)) < 1e-4 * fps:  # 'Frame Time: 0.0333333' means 30 fps
-        fps = float(round(fps))
+    fps = frame_rate(frame_time_s)
     motion = _motion_from_channels(name, skeleton, channels, motion_values, fps)
     return motion, BvhLayout(tuple(channels), frame_time_s)
+
+
+def frame_rate(frame_time_s: float) -> float:
+    """Frames per second of a frame time, whole when it is within 1e-4 of whole ('Frame Time: 0.0333333'
+    and float32 keyframe times mean 30 fps)."""
+    fps = 1.0 / frame_time_s
+    return float(round(fps)) if abs(fps - round(fps)) < 1e-4 * fps else fps
 
 
 def _parse_hierarchy(reader: _Lines) -> tuple[Skeleton, list[tuple[str, ...]]]:

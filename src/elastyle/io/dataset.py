@@ -16,6 +16,8 @@ from functools import lru_cache
 from pathlib import Path
 from typing import NamedTuple
 
+import numpy as np
+
 from elastyle.core.motion import Motion
 from elastyle.errors import BvhError, DatasetError
 from elastyle.io.bvh_layout import BvhLayout
@@ -42,6 +44,13 @@ class ClipRef(NamedTuple):
         return Path(self.member or self.name).stem
 
     def read(self) -> tuple[Motion, BvhLayout]:
+        """The clip and its layout: BVH, or binary glTF for a `.glb` name (with BVH's default layout)."""
+        if Path(self.member or self.name).suffix.lower() == ".glb":
+            from elastyle.io.gltf_read import parse_glb
+
+            motion = parse_glb(self.data(), self.name)
+            moving = np.flatnonzero(np.ptp(motion.translations, axis=0).max(axis=1) > 0).tolist()
+            return motion, BvhLayout.default(motion.skeleton, motion.fps, moving)
         if self.archive is None:
             return read_bvh(self.name)
         return parse_bvh(self.data(), self.name)
@@ -133,7 +142,7 @@ def read_clip(spec: str | os.PathLike[str]) -> tuple[Motion, BvhLayout]:
     archive = _split_archive(str(spec))
     if archive is not None and archive[1]:
         return ClipRef(str(spec), archive[0], archive[1]).read()
-    return read_bvh(spec)
+    return ClipRef(str(spec)).read()
 
 
 _BANDAI_NAME = re.compile(r"dataset-\d+_(?P<content>[a-z-]+)_(?P<style>[a-z]+)_(?P<take>\d+)$")

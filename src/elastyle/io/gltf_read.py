@@ -1,0 +1,92 @@
+"""glTF 2.0 in: a skinned, animated `.glb` as a `Motion` (what `io.gltf_write` writes, and what engines and
+Blender export), so `.glb` clips can be viewed, converted and transferred like BVH.
+
+The first skin's joints are the skeleton (in their order, parents before children), each joint's rest
+translation its offset; the first animation's rotation and translation tracks, sampled at its keyframe
+times (which must be evenly spaced: the frame rate), animate them. Lengths stay in metres.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from elastyle.core.motion import Motion
+from elastyle.core.rotations import from_quat
+from elastyle.core.skeleton import Skeleton
+from elastyle.errors import BvhError
+from elastyle.io.bvh_read import frame_rate
+from elastyle.types import FloatArray
+
+_WIDTH = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}
+
+
+def parse_glb(data: bytes, name: str) -> Motion:
+    """A `.glb` file's bytes as a clip; `BvhError` naming the file when it is not a usable animation."""
+    import pygltflib as gl
+
+    try:
+        document = gl.GLTF2.load_from_bytes(data)
+    except Exception as error:  # pygltflib raises bare exceptions of many kinds on damaged files
+        raise BvhError(name, f"not a readable binary glTF file ({type(error).__name__})") from None
+    if not document.skins or not document.animations:
+        raise BvhError(name, "a glTF file needs a skin (the skeleton) and an animation")
+    joints = list(document.skins[0].joints)
+    index = {node: j for j, node in enumerate(joints)}
+    parents = np.full(len(joints), -1, dtype=np.int64)
+    for node, j in index.items():
+        for child in document.nodes[node].children or []:
+            if child in index:
+                parents[index[child]] = j
+    if any(parent >= j for j, parent in enumerate(parents)):
+        raise BvhError(name, "the skin's joints are not listed parents first")
+    nodes = [document.nodes[node] for node in joints]
+    offsets = np.array([node.translation or [0.0, 0.0, 0.0] for node in nodes], dtype=np.float64)
+    rest_rotations = np.array([node.rotation or [0.0, 0.0, 0.0, 1.0] for node in nodes], dtype=np.float64)
+    animation = document.animations[0]
+    times = _accessor(document, animation.samplers[animation.channels[0].sampler].input, name)[:, 0]
+    steps = np.diff(times)
+    if len(times) < 2 or steps.min() <= 0 or steps.max() - steps.min() > 1e-4 * steps.mean() + 1e-6:
+        raise BvhError(name, "the animation's keyframes are not evenly spaced frames")
+    frames = len(times)
+    rotations = np.broadcast_to(from_quat(rest_rotations), (frames, len(joints), 3)).copy()
+    translations = np.broadcast_to(offsets, (frames, len(joints), 3)).copy()
+    for channel in animation.channels:
+        joint = index.get(channel.target.node)
+        if joint is None or channel.target.path not in ("rotation", "translation"):
+            continue
+        values = _accessor(document, animation.samplers[channel.sampler].output, name)
+        if len(values) != frames:
+            raise BvhError(
+                name, f"a track of joint {nodes[joint].name!r} has {len(values)} keys, not {frames}"
+            )
+        if channel.target.path == "rotation":
+            rotations[:, joint] = from_quat(values / np.linalg.norm(values, axis=-1, keepdims=True))
+        else:
+            translations[:, joint] = values
+    names = tuple(node.name or f"joint{j}" for j, node in enumerate(nodes))
+    end_sites = np.full((len(joints), 3), np.nan)
+    for j, node in enumerate(nodes):  # a child node outside the skin: an End Site (as io.gltf_write writes)
+        leaves = [c for c in node.children or [] if c not in index]
+        if leaves:
+            end_sites[j] = document.nodes[leaves[0]].translation or [0.0, 0.0, 0.0]
+    skeleton = Skeleton(names, parents, offsets, end_sites)
+    return Motion(skeleton, rotations, translations, frame_rate(float(steps.mean())))
+
+
+def _accessor(document: Any, accessor_index: int, name: str) -> FloatArray:
+    """A float accessor's values (N, width) from the binary chunk."""
+    import pygltflib as gl
+
+    accessor = document.accessors[accessor_index]
+    if accessor.componentType != gl.FLOAT or accessor.type not in _WIDTH or accessor.bufferView is None:
+        raise BvhError(name, f"an animation accessor of type {accessor.type} is not float32 data")
+    view = document.bufferViews[accessor.bufferView]
+    width = _WIDTH[accessor.type]
+    start = (view.byteOffset or 0) + (accessor.byteOffset or 0)
+    blob = document.binary_blob() or b""
+    data = blob[start : start + 4 * width * accessor.count]
+    if len(data) < 4 * width * accessor.count:
+        raise BvhError(name, "the binary chunk is shorter than its accessors say (truncated?)")
+    return np.frombuffer(data, dtype="<f4").reshape(accessor.count, width).astype(np.float64)
