@@ -10,7 +10,9 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -23,35 +25,45 @@ CONTENTS = ["walk_normal_005", "walk_normal_010", "run_normal_005", "walk-turn-l
             "wave-left-hand_normal_005", "raise-up-both-hands_normal_005"]  # fmt: skip
 
 
-@pytest.fixture(scope="module")
-def cluster(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    """A Dask scheduler and two one-thread workers as separate processes; yields the scheduler address."""
-    folder = tmp_path_factory.mktemp("dask")
+@contextmanager
+def _cluster(folder: Path, workers: int = 2) -> Iterator[tuple[str, list[subprocess.Popen[bytes]]]]:
+    """A Dask scheduler and one-thread workers as separate processes: the address and the worker processes."""
     scheduler_file = folder / "scheduler.json"
     dask = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
     worker = [sys.executable, "-m", "distributed.cli.dask_worker", "--scheduler-file", str(scheduler_file),
               "--nthreads", "1", "--no-dashboard", "--memory-limit", "0"]  # fmt: skip
+    quiet: dict[str, Any] = {
+        "stdout": subprocess.DEVNULL,
+        "stderr": subprocess.DEVNULL,
+        "start_new_session": True,
+    }
     processes = [subprocess.Popen([*dask, "--scheduler-file", str(scheduler_file), "--port", "0",
-                                   "--dashboard-address", ":0"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                  start_new_session=True)]  # fmt: skip
+                                   "--dashboard-address", ":0"], **quiet)]  # fmt: skip
     try:
         for _ in range(300):
             if scheduler_file.exists() and scheduler_file.read_text().strip():
                 break
             time.sleep(0.1)
         address = json.loads(scheduler_file.read_text())["address"]
-        processes += [subprocess.Popen(worker, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                       start_new_session=True) for _ in range(2)]  # fmt: skip
+        processes += [subprocess.Popen(worker, **quiet) for _ in range(workers)]
         from distributed import Client
 
         with Client(address, timeout="30s") as client:
-            client.wait_for_workers(2, timeout=60)
-        yield address
+            client.wait_for_workers(workers, timeout=60)
+        yield address, processes[1:]
     finally:
         for process in processes:
-            os.killpg(process.pid, signal.SIGTERM)
+            if process.poll() is None:
+                os.killpg(process.pid, signal.SIGTERM)
         for process in processes:
             process.wait(timeout=30)
+
+
+@pytest.fixture(scope="module")
+def cluster(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    """A scheduler and two workers for the module; yields the scheduler address."""
+    with _cluster(tmp_path_factory.mktemp("dask")) as (address, _):
+        yield address
 
 
 def _transfer(contents: list[str], style: str, output: Path, *extra: str) -> subprocess.CompletedProcess[str]:
@@ -101,3 +113,29 @@ def test_an_unreachable_scheduler_is_one_line(tmp_path: Path, monkeypatch: pytes
     monkeypatch.setattr(batch, "CONNECT_TIMEOUT_S", 2)
     with pytest.raises(Exception, match="cannot reach the Dask scheduler"):
         run_on_dask(None, ["x"], [tmp_path / "x.bvh"], "tcp://127.0.0.1:9")  # type: ignore[arg-type]
+
+
+@pytest.mark.slow
+def test_a_worker_that_dies_mid_batch_does_not_lose_clips(
+    tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
+    walks = [c.name for c in dataset_clips if c.stem.startswith("dataset-2_walk_normal_")][:16]
+    style = clip_named(dataset_clips, "dataset-2_walk_elderly_010").name
+    local, remote = tmp_path / "local", tmp_path / "dask"
+    assert _transfer(walks, style, local).returncode == 0
+    with _cluster(tmp_path, workers=2) as (address, workers):
+        command = [sys.executable, "-m", "elastyle.cli", "transfer", *walks, "--style", style, "-o", f"{remote}/",
+                   "--scheduler", address]  # fmt: skip
+        batch = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        for _ in range(600):  # the first output written: the workers are busy
+            if remote.exists() and any(remote.glob("*.bvh")):
+                break
+            time.sleep(0.05)
+        os.killpg(workers[0].pid, signal.SIGKILL)
+        written_at_kill = len(list(remote.glob("*.bvh")))
+        _, stderr = batch.communicate(timeout=300)
+    assert written_at_kill < len(walks)  # the worker died with the batch under way
+    assert batch.returncode == 0, stderr
+    assert sorted(p.name for p in remote.glob("*.bvh")) == sorted(p.name for p in local.glob("*.bvh"))
+    for path in local.glob("*.bvh"):
+        assert (remote / path.name).read_bytes() == path.read_bytes(), path.name
