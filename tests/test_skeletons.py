@@ -7,6 +7,7 @@ from __future__ import annotations
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -95,19 +96,28 @@ def test_a_skeleton_without_legs_says_so(tmp_path: Path) -> None:
 REFEREE = Path(__file__).resolve().parents[2] / "shared" / "referee"
 
 
+def _referee() -> tuple[Any, Any] | None:
+    """The independent referee's own BVH reader and metrics modules (nothing of elastyle's), if present."""
+    if not (REFEREE / "metrics.py").exists():
+        return None
+    sys.path.insert(0, str(REFEREE))
+    try:
+        import bvh
+        import metrics
+    finally:
+        sys.path.remove(str(REFEREE))
+    return bvh, metrics
+
+
 @pytest.mark.slow
 def test_eval_skating_agrees_with_the_independent_referee(
     tmp_path: Path, dataset_clips: list[ClipRef]
 ) -> None:
     """elastyle's floor-based skate against the referee's own code on ten transfer outputs (within 10 %)."""
-    if not (REFEREE / "metrics.py").exists():
+    referee = _referee()
+    if referee is None:
         pytest.skip(f"the referee is not at {REFEREE}")
-    sys.path.insert(0, str(REFEREE))
-    try:
-        import bvh as referee_bvh  # the referee's own reader and metrics, nothing of elastyle's
-        import metrics as referee_metrics
-    finally:
-        sys.path.remove(str(REFEREE))
+    referee_bvh, referee_metrics = referee
     from elastyle import transfer
     from elastyle.eval.metrics import floor_skating_cm_s
 
@@ -204,13 +214,9 @@ def test_a_cmu_skeleton_at_120_fps_end_to_end(tmp_path: Path, dataset_clips: lis
     from elastyle.eval.metrics import floor_skating_cm_s
 
     assert floor_skating_cm_s(outputs[""]) < floor_skating_cm_s(outputs["--no-cleanup"])  # the clean-up acts
-    if (REFEREE / "metrics.py").exists():
-        sys.path.insert(0, str(REFEREE))
-        try:
-            import bvh as referee_bvh
-            import metrics as referee_metrics
-        finally:
-            sys.path.remove(str(REFEREE))
+    referee = _referee()
+    if referee is not None:
+        referee_bvh, referee_metrics = referee
         theirs = referee_metrics.cadence(referee_bvh.read_bvh(str(tmp_path / "out.bvh")))["cadence"]
         assert cadence_steps_s(outputs[""]) == pytest.approx(theirs, rel=0.1)
 

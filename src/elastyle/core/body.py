@@ -83,11 +83,17 @@ class Limbs:
         return np.concatenate([self.toes, self.ankles])
 
 
-def _deepest_descendant(skeleton: Skeleton, joint: int) -> int:
+def _subtree_depths(skeleton: Skeleton, joint: int) -> dict[int, int]:
+    """Every joint of `joint`'s subtree (itself included) and its depth below `joint`."""
     depth = {joint: 0}
-    for j in range(joint + 1, skeleton.num_joints):
+    for j in range(joint + 1, skeleton.num_joints):  # parents come before their children
         if skeleton.parents[j] in depth:
             depth[j] = depth[int(skeleton.parents[j])] + 1
+    return depth
+
+
+def _deepest_descendant(skeleton: Skeleton, joint: int) -> int:
+    depth = _subtree_depths(skeleton, joint)
     return max(depth, key=lambda j: (depth[j], -j))
 
 
@@ -107,17 +113,8 @@ def _alike_pair(skeleton: Skeleton, joints: list[int]) -> list[int]:
     bone = np.linalg.norm(skeleton.offsets, axis=1)
 
     def shape(joint: int) -> tuple[int, int, float]:
-        below = [joint]
-        for j in range(joint + 1, skeleton.num_joints):
-            if skeleton.parents[j] in below:
-                below.append(j)
-        depth = 0
-        for j in below:
-            k, steps = j, 0
-            while k != joint:
-                k, steps = int(skeleton.parents[k]), steps + 1
-            depth = max(depth, steps)
-        return len(below), depth, float(bone[below].sum())
+        depth = _subtree_depths(skeleton, joint)
+        return len(depth), max(depth.values()), float(bone[list(depth)].sum())
 
     shapes = {j: shape(j) for j in joints}
     pairs = [
@@ -141,10 +138,7 @@ def _limbs_of(skeleton: Skeleton) -> Limbs:
     spine = [c for c in skeleton.children(pelvis) if partner[c] == c and c not in legs]
     hands: list[int] = []
     if spine:
-        below_spine = {spine[0]}
-        for j in range(spine[0] + 1, skeleton.num_joints):
-            if skeleton.parents[j] in below_spine:
-                below_spine.add(j)
+        below_spine = set(_subtree_depths(skeleton, spine[0]))
         # arm roots: sided joints below the spine whose parent is a centre joint
         roots = [
             j

@@ -14,14 +14,20 @@ MAX_INPUT_VARIABLE = "ELASTYLE_MAX_INPUT_MB"
 DEFAULT_MAX_INPUT_MB = 512.0  # about an hour of 120 fps capture of a 60-joint skeleton
 
 
+def megabytes_from_environment(variable: str, default_mb: float) -> int:
+    """A size limit in bytes from an environment variable in megabytes (the default when unset or not a
+    number)."""
+    text = os.environ.get(variable, "")
+    try:
+        megabytes = float(text) if text else default_mb
+    except ValueError:
+        megabytes = default_mb
+    return int(max(megabytes, 0.0) * 2**20)
+
+
 def max_input_bytes() -> int:
     """The largest input elastyle reads (bytes): `ELASTYLE_MAX_INPUT_MB`, else 512 MB."""
-    text = os.environ.get(MAX_INPUT_VARIABLE, "")
-    try:
-        megabytes = float(text) if text else DEFAULT_MAX_INPUT_MB
-    except ValueError:
-        megabytes = DEFAULT_MAX_INPUT_MB
-    return int(max(megabytes, 0.0) * 1024 * 1024)
+    return megabytes_from_environment(MAX_INPUT_VARIABLE, DEFAULT_MAX_INPUT_MB)
 
 
 def input_problem(path: str | os.PathLike[str], size: int | None = None) -> str | None:

@@ -34,7 +34,6 @@ def glb_bytes(motion: Motion) -> bytes:
     scale = metres_per_unit(motion)
     skeleton = motion.skeleton
     blob = _Blob()
-    rest = skeleton.offsets * scale  # (J, 3) metres
     translations = motion.translations * scale  # (T, J, 3)
     quats = continuous_quats(to_quat(motion.rotations), axis=0)  # (T, J, 4) x, y, z, w
     nodes = [
@@ -50,7 +49,7 @@ def glb_bytes(motion: Motion) -> bytes:
         if np.all(np.isfinite(end)):
             nodes[joint].children.append(len(nodes))
             nodes.append(gl.Node(name=f"{skeleton.names[joint]}_end", translation=_floats(end * scale)))
-    world_rest = _rest_positions(skeleton.parents, rest)  # (J, 3)
+    world_rest = skeleton.rest_positions() * scale  # (J, 3) metres
     inverse_bind = np.tile(np.eye(4, dtype=np.float32), (skeleton.num_joints, 1, 1))
     inverse_bind[:, 3, :3] = -world_rest  # column-major: the translation is the last column
     times = np.arange(motion.num_frames, dtype=np.float64) / motion.fps
@@ -131,14 +130,6 @@ class _Blob:
             )
         )
         return len(self.accessors) - 1
-
-
-def _rest_positions(parents: Any, offsets: FloatArray) -> FloatArray:
-    """World positions (J, 3) of the rest pose (offsets added down the hierarchy, no rotation)."""
-    world = np.zeros_like(offsets)
-    for joint, parent in enumerate(parents):  # parents come before their children in a BVH
-        world[joint] = offsets[joint] + (world[parent] if parent >= 0 else 0.0)
-    return world
 
 
 def _floats(values: FloatArray) -> list[float]:

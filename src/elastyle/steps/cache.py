@@ -19,7 +19,7 @@ import numpy as np
 from elastyle.core.motion import Motion
 from elastyle.errors import OutputError
 from elastyle.io.dataset import ClipRef
-from elastyle.io.files import write_bytes_atomic
+from elastyle.io.files import megabytes_from_environment, write_bytes_atomic
 from elastyle.model.file import FORMAT_VERSION, StyleModel
 from elastyle.steps.library import StyleLibrary, prepare_style
 
@@ -31,12 +31,7 @@ DEFAULT_CACHE_MB = 1024.0
 
 def cache_limit_bytes() -> int:
     """The cache's size limit: `$ELASTYLE_CACHE_MB` megabytes, else 1024."""
-    text = os.environ.get("ELASTYLE_CACHE_MB", "")
-    try:
-        megabytes = float(text) if text else DEFAULT_CACHE_MB
-    except ValueError:
-        megabytes = DEFAULT_CACHE_MB
-    return int(max(megabytes, 0.0) * 2**20)
+    return megabytes_from_environment("ELASTYLE_CACHE_MB", DEFAULT_CACHE_MB)
 
 
 def cache_folder() -> Path:
