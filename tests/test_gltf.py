@@ -13,8 +13,9 @@ import pytest
 
 from elastyle import read_bvh
 from elastyle.core.motion import Motion
+from elastyle.io.clip_write import write_clip
 from elastyle.io.dataset import ClipRef
-from elastyle.io.gltf_write import metres_per_unit, write_glb
+from elastyle.io.gltf_write import metres_per_unit
 from tests.conftest import clip_named
 
 COMPONENTS = {"SCALAR": 1, "VEC3": 3, "VEC4": 4, "MAT4": 16}
@@ -71,7 +72,7 @@ def _posed_joint_positions(path: Path, frame: int) -> dict[str, np.ndarray]:
 
 
 def _check(motion: Motion, path: Path) -> None:
-    write_glb(path, motion)
+    write_clip(path, motion)
     document = pygltflib.GLTF2().load(str(path))
     times = _accessor(document, document.animations[0].samplers[0].input)[:, 0]
     np.testing.assert_allclose(times, np.arange(motion.num_frames) / motion.fps, atol=1e-5)
@@ -121,7 +122,7 @@ def test_glb_in_reads_back_what_glb_out_wrote(three_channel_bvh: Path, tmp_path:
 
     motion, _ = read_bvh(three_channel_bvh)
     path = tmp_path / "tiny.glb"
-    write_glb(path, motion)
+    write_clip(path, motion)
     back, layout = read_clip(path)
     scale = metres_per_unit(motion)
     assert back.skeleton.names == motion.skeleton.names and back.fps == motion.fps
@@ -142,7 +143,7 @@ def test_glb_in_reads_back_what_glb_out_wrote(three_channel_bvh: Path, tmp_path:
 def test_a_damaged_glb_is_one_line(three_channel_bvh: Path, tmp_path: Path) -> None:
     motion, _ = read_bvh(three_channel_bvh)
     path = tmp_path / "cut.glb"
-    write_glb(path, motion)
+    write_clip(path, motion)
     path.write_bytes(path.read_bytes()[:300])
     result = subprocess.run(
         [sys.executable, "-m", "elastyle.cli", "info", str(path)], capture_output=True, text=True

@@ -307,11 +307,11 @@ def test_headless_browser_plays_a_glb(
     if not CHROMIUM.exists():
         pytest.skip(f"{CHROMIUM} not found: install chromium (apt-get install chromium) for the browser test")
     Image = pytest.importorskip("PIL.Image", reason="reading the screenshot needs Pillow")
+    from elastyle.io.clip_write import write_clip
     from elastyle.io.dataset import read_clip
-    from elastyle.io.gltf_write import write_glb
 
     path = tmp_path / "walk.glb"
-    write_glb(path, clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0].slice(0, 150))
+    write_clip(path, clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0].slice(0, 150))
     motion, _ = read_clip(path)
     url = serve(build_payload([motion], ["walk.glb"]))
     dom = run_chromium(url, tmp_path / "profile-dom", "--dump-dom").stdout

@@ -1,9 +1,10 @@
 """Running a transfer over many content clips: one clip (`transfer_one`), the cores of this computer
 (`run_local`), or an existing Dask cluster (`run_on_dask`, `elastyle[dask]`). The style library is encoded
-once and shared: inherited by forked local workers, scattered once to every Dask worker. Each clip's
-output is written atomically by whoever transfers it (on a cluster: the workers, so the output folder must
-be one they all see), under the same `--force` and never-overwrite-an-input rules; a failed clip is one
-error line and the others still finish."""
+once and shared: inherited by forked local workers, scattered once to every Dask worker. A task reads and
+transfers its clip and returns the output file's bytes; the command writes each output atomically, once,
+under the same `--force` and never-overwrite-an-input rules (so a task run twice, after its worker died,
+writes nothing twice, and on a cluster only the command needs to see the output folder). A failed clip is
+one error line and the others still finish."""
 
 from __future__ import annotations
 
@@ -41,9 +42,21 @@ class Job(NamedTuple):
 
 def transfer_one(job: Job, content_spec: str, target: Path) -> None:
     """Read one content clip, transfer it and write its output (and explain file) atomically."""
-    from elastyle.io.clip_write import write_clip
-    from elastyle.io.dataset import read_clip
     from elastyle.io.files import write_text_atomic
+
+    output, explain = _transfer(job, content_spec, target)
+    _write(job, target, output)
+    if job.explain:
+        explain = dict(explain, content=content_spec, output=str(target))
+        write_text_atomic(
+            job.explain, json.dumps(explain, indent=1), force=job.force, inputs=(*job.inputs, str(target))
+        )
+
+
+def _transfer(job: Job, content_spec: str, target: Path) -> tuple[bytes, dict[str, Any]]:
+    """One content clip read and transferred: the bytes of its output file and the explain record."""
+    from elastyle.io.clip_write import clip_bytes
+    from elastyle.io.dataset import read_clip
     from elastyle.pipeline import transfer
 
     motion, layout = read_clip(content_spec)
@@ -51,21 +64,22 @@ def transfer_one(job: Job, content_spec: str, target: Path) -> None:
         motion, job.style, job.config, model=job.model, second_style=job.second,
         second_weight=job.second_weight, content_name=content_spec,
     )  # fmt: skip
-    write_clip(target, result.motion, layout, force=job.force, inputs=job.inputs)
-    if job.explain:
-        explain = dict(result.explain, content=content_spec, output=str(target))
-        write_text_atomic(
-            job.explain, json.dumps(explain, indent=1), force=job.force, inputs=(*job.inputs, str(target))
-        )
-    log.info("wrote %s (%d frames, %.2f s; content %.2f s)", target, result.motion.num_frames,
+    log.info("transferred %s (%d frames, %.2f s; content %.2f s)", content_spec, result.motion.num_frames,
              result.motion.duration_s, motion.duration_s)  # fmt: skip
+    return clip_bytes(target, result.motion, layout), result.explain
 
 
-def transfer_task(job: Job, content_spec: str, target: Path) -> str | None:
-    """One batch item wherever it runs: None, or the one-line error."""
+def _write(job: Job, target: Path, output: bytes) -> None:
+    from elastyle.io.files import write_bytes_atomic
+
+    write_bytes_atomic(target, output, force=job.force, inputs=job.inputs)
+    log.info("wrote %s", target)
+
+
+def transfer_task(job: Job, content_spec: str, target: Path) -> bytes | str:
+    """One batch item wherever it runs: the output file's bytes, or the one-line error."""
     try:
-        transfer_one(job, content_spec, target)
-        return None
+        return _transfer(job, content_spec, target)[0]
     except ElastyleError as error:
         return str(error)
 
@@ -78,7 +92,7 @@ def _worker_start(job: Job) -> None:
     logging.getLogger("elastyle").setLevel(logging.WARNING)
 
 
-def _worker_transfer(task: tuple[str, Path]) -> str | None:
+def _worker_transfer(task: tuple[str, Path]) -> bytes | str:
     return transfer_task(_WORKER_JOB[0], *task)
 
 
@@ -91,8 +105,8 @@ def run_local(job: Job, contents: list[str], targets: list[Path], jobs: int | No
     workers = max(1, min(len(contents), jobs or os.cpu_count() or 1))
     context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
     with ProcessPoolExecutor(workers, mp_context=context, initializer=_worker_start, initargs=(job,)) as pool:
-        futures = {pool.submit(_worker_transfer, task): task[0] for task in zip(contents, targets)}
-        return _report(as_completed(futures), futures, lambda future: future.result())
+        futures = {pool.submit(_worker_transfer, task): task for task in zip(contents, targets)}
+        return _write_all(job, as_completed(futures), futures, lambda future: future.result())
 
 
 def run_on_dask(job: Job, contents: list[str], targets: list[Path], address: str) -> int:
@@ -109,24 +123,31 @@ def run_on_dask(job: Job, contents: list[str], targets: list[Path], address: str
     with client:
         shared = client.scatter(job, broadcast=True)
         futures = {
-            client.submit(transfer_task, shared, content, target, pure=False, retries=2): content
+            client.submit(transfer_task, shared, content, target, pure=False, retries=2): (content, target)
             for content, target in zip(contents, targets)
         }
-        return _report(as_completed(futures), futures, lambda future: future.result())
+        return _write_all(job, as_completed(futures), futures, lambda future: future.result())
 
 
-def _report(done: Iterable[Any], names: dict[Any, str], result: Callable[[Any], str | None]) -> int:
-    """Progress over finished tasks (a bar on a terminal), one error line per failed clip; the exit code."""
+def _write_all(
+    job: Job, done: Iterable[Any], tasks: dict[Any, tuple[str, Path]], result: Callable[[Any], bytes | str]
+) -> int:
+    """Each finished task's output written (a progress bar on a terminal), one error line per failed clip;
+    the exit code."""
     from tqdm import tqdm
 
     failures = 0
-    with tqdm(total=len(names), unit="clip", desc="transfer", disable=None, dynamic_ncols=True) as bar:
+    with tqdm(total=len(tasks), unit="clip", desc="transfer", disable=None, dynamic_ncols=True) as bar:
         for future in done:
-            error = result(future)
-            if error is not None:
+            content, target = tasks[future]
+            output = result(future)
+            try:
+                if isinstance(output, str):
+                    raise ElastyleError(output)
+                _write(job, target, output)
+            except ElastyleError as error:
                 failures += 1
                 bar.write(f"elastyle: error: {error}", file=sys.stderr)
-            log.debug("%s%s", names[future], " failed" if error else " done")
             bar.update()
-    log.info("%d of %d clips transferred", len(names) - failures, len(names))
+    log.info("%d of %d clips transferred", len(tasks) - failures, len(tasks))
     return 1 if failures else 0

@@ -76,9 +76,14 @@ def write_bvh(
 ) -> None:
     """Write a clip as BVH, atomically; refuses to replace an existing file unless `force`, to write
     non-finite values, or to replace any of `inputs`."""
+    refuse_non_finite(path, motion)
+    write_text_atomic(path, bvh_text(motion, layout), force=force, inputs=inputs)
+
+
+def refuse_non_finite(path: str | os.PathLike[str], motion: Motion) -> None:
+    """A `BvhError` naming `path` when the clip to be written there holds NaN or infinite values."""
     if not motion.is_finite():
         raise BvhError(str(path), "the clip holds NaN or infinite values; nothing written")
-    write_text_atomic(path, bvh_text(motion, layout), force=force, inputs=inputs)
 
 
 def _write_joint(out: io.StringIO, skeleton: Skeleton, layout: BvhLayout, joint: int, depth: int) -> None:

@@ -8,6 +8,8 @@ from pathlib import Path
 from elastyle.core.motion import Motion
 from elastyle.errors import UsageError
 from elastyle.io.bvh_layout import BvhLayout
+from elastyle.io.bvh_write import bvh_text, refuse_non_finite
+from elastyle.io.files import write_bytes_atomic
 
 OUTPUT_SUFFIXES = (".bvh", ".glb")
 
@@ -21,6 +23,18 @@ def check_output_format(path: str | os.PathLike[str]) -> None:
         )
 
 
+def clip_bytes(path: str | os.PathLike[str], motion: Motion, layout: BvhLayout | None = None) -> bytes:
+    """The file `path` would hold for `motion`: BVH (in `layout`) or binary glTF, by the name's extension.
+    Refuses non-finite values, naming `path`."""
+    check_output_format(path)
+    refuse_non_finite(path, motion)
+    if Path(path).suffix.lower() == ".glb":
+        from elastyle.io.gltf_write import glb_bytes
+
+        return glb_bytes(motion)
+    return bvh_text(motion, layout).encode("utf-8")
+
+
 def write_clip(
     path: str | os.PathLike[str],
     motion: Motion,
@@ -28,13 +42,6 @@ def write_clip(
     force: bool = False,
     inputs: tuple[str, ...] = (),
 ) -> None:
-    """Write `motion` as BVH (in `layout`) or binary glTF, by the name's extension."""
-    check_output_format(path)
-    if Path(path).suffix.lower() == ".glb":
-        from elastyle.io.gltf_write import write_glb
-
-        write_glb(path, motion, force=force, inputs=inputs)
-    else:
-        from elastyle.io.bvh_write import write_bvh
-
-        write_bvh(path, motion, layout, force=force, inputs=inputs)
+    """Write `motion` as BVH (in `layout`) or binary glTF, by the name's extension, atomically; refuses to
+    replace an existing file unless `force`, or any of `inputs`."""
+    write_bytes_atomic(path, clip_bytes(path, motion, layout), force=force, inputs=inputs)

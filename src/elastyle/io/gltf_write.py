@@ -9,7 +9,6 @@ file's unit (`core.body.centimetres_per_unit`), and BVH is Y up already. Written
 
 from __future__ import annotations
 
-import os
 from typing import Any
 
 import numpy as np
@@ -17,8 +16,6 @@ import numpy as np
 from elastyle.core.body import centimetres_per_unit
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import continuous_quats, to_quat
-from elastyle.errors import BvhError
-from elastyle.io.files import write_bytes_atomic
 from elastyle.types import AnyFloatArray, FloatArray
 
 
@@ -91,15 +88,6 @@ def glb_bytes(motion: Motion) -> bytes:
     )
     document.set_binary_blob(bytes(blob.data))
     return bytes(b"".join(document.save_to_bytes()))
-
-
-def write_glb(
-    path: str | os.PathLike[str], motion: Motion, force: bool = False, inputs: tuple[str, ...] = ()
-) -> None:
-    """Write a clip as `.glb`, atomically, under the same rules as `write_bvh`."""
-    if not motion.is_finite():
-        raise BvhError(str(path), "the clip holds NaN or infinite values; nothing written")
-    write_bytes_atomic(path, glb_bytes(motion), force=force, inputs=inputs)
 
 
 class _Blob:
