@@ -118,19 +118,25 @@ def test_clean_feet_pins_sliding_feet_of_a_real_walk(walk_clip: ClipRef) -> None
     # the metric's own contacts also count swing feet passing low at full speed, so it cannot reach ~0
     assert foot_skating_cm_s(cleaned) < foot_skating_cm_s(drifted)
     fps = drifted.fps
-    assert jerk(cleaned.positions(), fps) <= 1.1 * jerk(drifted.positions(), fps)
+    # pinning every sliding stance (also those that slide back slower than the root) costs some smoothness
+    assert jerk(cleaned.positions(), fps) <= 1.15 * jerk(drifted.positions(), fps)
     knee_steps_before = np.abs(np.diff(knee_angles_deg(drifted), axis=0)).max()
     knee_steps_after = np.abs(np.diff(knee_angles_deg(cleaned), axis=0)).max()
-    assert knee_steps_after <= knee_steps_before + 6.0, (knee_steps_before, knee_steps_after)
+    # a heel strike held from its first level frame bends the knee a little faster than the capture did
+    assert knee_steps_after <= knee_steps_before + 8.0, (knee_steps_before, knee_steps_after)
 
 
 def test_root_follows_the_stride_then_feet_are_pinned(walk_clip: ClipRef) -> None:
     motion = walk_clip.read()[0]
     stretched = with_stretched_root_path(motion, 1.25)
     contacts = detect_contacts(stretched)
-    moved = adjust_root_speed(stretched, contacts)
+    moved = adjust_root_speed(stretched, contacts, tolerance=0.25)
     assert np.array_equal(moved.rotations, stretched.rotations)
     assert contact_skating_cm_s(moved, contacts) < 0.3 * contact_skating_cm_s(stretched, contacts)
+    # by default the root strays at most 10 % of the path's length from the path it was given
+    held = adjust_root_speed(stretched, contacts)
+    strayed = held.positions()[:, motion.skeleton.pelvis] - stretched.positions()[:, motion.skeleton.pelvis]
+    assert np.linalg.norm(strayed[:, [0, 2]], axis=-1).max() <= 0.1 * path_length(stretched) + 1e-6
     assert path_length(moved) == pytest.approx(path_length(motion), rel=0.1)
     cleaned = clean_feet(moved, contacts)
     check_cleaned(stretched, cleaned)
@@ -281,3 +287,35 @@ def test_contact_hysteresis_matches_its_frame_by_frame_definition() -> None:
         for frame in range(1, 60):
             expected[frame] = enter[frame] | (expected[frame - 1] & stay[frame])
         assert np.array_equal(_hysteresis(enter, stay), expected)
+
+
+def _reversed(motion: Motion) -> Motion:
+    """The clip played backwards: a forward walk becomes a backward walk."""
+    return Motion(
+        motion.skeleton, motion.rotations[::-1].copy(), motion.translations[::-1].copy(), motion.fps
+    )
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("content", "style", "backward"),
+    [
+        ("run_normal_010", "run_exhausted_015", False),  # short stance, flight phases; 91 cm/s before
+        ("run_masculine_005", "run_active_010", False),
+        ("walk_normal_005", "walk_masculine_010", True),  # stance feet slide towards the direction of travel
+    ],
+)
+def test_transfers_of_runs_and_backward_walks_keep_feet_planted(
+    dataset_clips: list[ClipRef], content: str, style: str, backward: bool
+) -> None:
+    """Skate as an independent benchmark measures it (toes within 2 cm of their own floor, no contact
+    detector): at most 8 cm/s after the transfer, as on real clips."""
+    from elastyle import transfer
+    from elastyle.eval.metrics import floor_skating_cm_s
+
+    clips = [clip_named(dataset_clips, f"dataset-2_{name}").read()[0] for name in (content, style)]
+    if backward:
+        clips = [_reversed(clip) for clip in clips]
+    output = transfer(clips[0], clips[1]).motion
+    unplanted = transfer(clips[0], clips[1], cleanup=False).motion
+    assert floor_skating_cm_s(output) <= 8.0 < floor_skating_cm_s(unplanted)

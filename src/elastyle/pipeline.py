@@ -33,6 +33,7 @@ from elastyle.core.threads import one_blas_thread
 from elastyle.errors import ClipTooShortError, ResultError
 from elastyle.model.depth import depth_warning, reconstruction_error_cm
 from elastyle.model.file import StyleModel, load_model
+from elastyle.steps.action import action_channels
 from elastyle.steps.cleanup import adjust_root_speed, clean_feet
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.contacts import detect_contacts
@@ -99,7 +100,8 @@ def transfer(
         log.warning("%s", warning)
     # whiten, match, place, cross-fade and colour: one track per style library on a content-time grid
     grid = content_grid(working.num_frames)  # (G,) content frames
-    tracks = [style_track(content_latents, library, grid, config, fps) for library in libraries]
+    actions = action_channels(working)  # (T, A) what the body does, matched beside the latents
+    tracks = [style_track(content_latents, actions, library, grid, config, fps) for library in libraries]
     # retime: strength and shares mix the tracks; the mixed rate gives each output frame's content time
     grid_s = grid / fps
     strength = config.strength_schedule.at(grid_s)
@@ -154,11 +156,11 @@ def _plain_output(
 
 
 def _clean_up(motion: Motion, config: TransferConfig) -> Motion:
-    """Feet planted (after moving the root with the stance feet, if asked)."""
+    """Feet planted, after the root has taken its share of the stance feet's drift."""
     contacts = None  # found by clean_feet from its own forward kinematics
-    if config.adjust_root:
+    if config.root_follows_legs > 0:
         contacts = detect_contacts(motion)
-        motion = adjust_root_speed(motion, contacts)
+        motion = adjust_root_speed(motion, contacts, config.root_follows_legs)
     return clean_feet(motion, contacts)
 
 

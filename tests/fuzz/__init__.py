@@ -29,7 +29,7 @@ OPTIONS = [
     [], ["--patch-s", "1e-9"], ["--patch-s", "59"], ["--stretch", "0.999"], ["--stretch-step-s", "0"],
     ["--strength", "0:0,1e9:1"], ["--strength", "-1"], ["--smooth-s", "9.9"], ["--residual-smooth-s", "10"],
     ["--whiten-floor", "1e-300"], ["--method", "wct"], ["--method", "adain"], ["--placement", "fixed"],
-    ["--timing", "content"], ["--decode", "plain"], ["--adjust-root"], ["--no-cleanup"], ["--blend", "nan"],
+    ["--timing", "content"], ["--decode", "plain"], ["--root-follows-legs", "1"], ["--no-cleanup"], ["--blend", "nan"],
     ["--at", "1"], ["--patch-s", "inf"], ["--stretch", "-0.5"], ["--jobs", "0"],
 ]  # fmt: skip
 

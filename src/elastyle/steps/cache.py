@@ -53,7 +53,7 @@ def model_fingerprint(model: StyleModel) -> str:
     return digest.hexdigest()
 
 
-CACHE_VERSION = 2  # 2: libraries encoded on one BLAS thread (core.threads), so entries of 1 are not used
+CACHE_VERSION = 3  # 2: libraries encoded on one BLAS thread (core.threads); 3: with action descriptors
 
 
 def library_key(model: StyleModel, clips: list[ClipRef], mirror_style: bool) -> str:
@@ -79,12 +79,13 @@ def load_library(
     if use_cache and path.exists():
         try:
             with np.load(path, allow_pickle=False) as archive:
-                latents = archive["latents"]
+                latents, actions = archive["latents"], archive["actions"]
                 names = [str(n) for n in archive["names"]]
                 spans = _spans(archive["clip_starts"], len(latents))
                 library = StyleLibrary.of_latents(
-                    names, [bool(m) for m in archive["mirrored"]], [latents[a:b] for a, b in spans]
-                )
+                    names, [bool(m) for m in archive["mirrored"]], [latents[a:b] for a, b in spans],
+                    [actions[a:b] for a, b in spans],
+                )  # fmt: skip
             log.debug("style library from cache %s", path)
             os.utime(path)  # recently used: kept longest when the cache is pruned
             return library
@@ -102,8 +103,8 @@ def load_library(
 
             buffer = BytesIO()
             np.savez(
-                buffer, latents=library.latents, names=np.array(library.names), mirrored=np.array(library.mirrored),
-                clip_starts=library.clip_starts,
+                buffer, latents=library.latents, actions=library.actions, names=np.array(library.names),
+                mirrored=np.array(library.mirrored), clip_starts=library.clip_starts,
             )  # fmt: skip
             write_bytes_atomic(path, buffer.getvalue(), force=True)
             prune_cache(path.parent, cache_limit_bytes(), keep=path)

@@ -17,6 +17,7 @@ from elastyle.types import BoolArray, FloatArray, IntArray
 
 BRIDGE_GAP_S = 0.6  # a foot's gaps between contacts up to this long (a step's swing) are bridged directly
 SMOOTH_SIGMA_OF_WIDTH = 0.4  # a window's half-width w is smoothed by a Gaussian of sigma 0.4 w
+ROOT_TOLERANCE_OF_PATH = 0.1  # the adjusted root strays at most this fraction of the path's length from it
 SOFT_REACH = 0.995  # IK straightens a knee up to this fraction of the leg's reach before lowering the pelvis
 
 
@@ -76,12 +77,21 @@ def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float
     return Motion(skeleton, rotations, translations, motion.fps)
 
 
-def adjust_root_speed(motion: Motion, contacts: BoolArray, smooth_s: float = 0.2) -> Motion:
-    """Move the pelvis horizontally so that planted feet stop drifting: the root advances with the stride.
+def adjust_root_speed(
+    motion: Motion,
+    contacts: BoolArray,
+    share: float = 1.0,
+    smooth_s: float = 0.2,
+    tolerance: float = ROOT_TOLERANCE_OF_PATH,
+) -> Motion:
+    """Move the pelvis horizontally so that planted feet drift less: the root advances with the stride.
 
     contacts: (T, F) planted feet. Each frame step, the mean horizontal step (file units) of the feet held
-    at both frames (weighted as in `clean_feet`), low-passed over about `smooth_s` seconds, is taken off the
-    pelvis path; steps with no foot planted keep theirs. Run it before `clean_feet`.
+    at both frames (weighted as in `clean_feet`), low-passed over about `smooth_s` seconds, times `share`
+    (1: all of it, the feet stop drifting; 0.5: half, the legs' IK in `clean_feet` takes the rest), is taken
+    off the pelvis path; steps with no foot planted keep theirs. The share is lowered where needed so that
+    the root never strays further than `tolerance` of the path's horizontal length from the path it was
+    given (its shape and end point kept within 10 % by default). Run it before `clean_feet`.
     """
     limbs = find_limbs(motion.skeleton)
     contacts = _checked(contacts, motion, limbs)
@@ -94,7 +104,11 @@ def adjust_root_speed(motion: Motion, contacts: BoolArray, smooth_s: float = 0.2
     drift = steps / np.maximum(planted.sum(axis=(1, 2)), 1.0)[:, None]  # (T-1, 3) mean planted-foot step
     drift[:, 1] = 0.0
     drift = smooth(drift, SMOOTH_SIGMA_OF_WIDTH * smooth_s * motion.fps)
-    shift = -np.concatenate([np.zeros((1, 3)), np.cumsum(drift, axis=0)])  # (T, 3) world
+    shift = -share * np.concatenate([np.zeros((1, 3)), np.cumsum(drift, axis=0)])  # (T, 3) world
+    path = np.sum(lengths(np.diff(positions[:, motion.skeleton.pelvis, [0, 2]], axis=0)))
+    furthest = np.max(lengths(shift), initial=0.0)
+    if furthest > tolerance * path:
+        shift *= tolerance * path / furthest
     return Motion(
         motion.skeleton, motion.rotations.copy(), _shift_pelvis(motion, world_rotations, shift), motion.fps
     )

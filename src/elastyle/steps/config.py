@@ -69,6 +69,19 @@ class TransferConfig:
         "directions that hardly vary are not amplified into the match (1e-4: about the report's whitening)",
         low=0.0, high=10.0, low_open=True,
     )  # fmt: skip
+    action_weight: float = option(
+        0.0,
+        "matching: weight of what the body does (travel, hands, feet; steps.action) beside the whitened "
+        "latents, so a window performing another action is not swapped in (0: latents alone, the report's "
+        "matching)",
+        low=0.0, high=100.0,
+    )  # fmt: skip
+    fallback_below: float = option(
+        -1.0,
+        "where the best style window's similarity (cosine, -1 to 1) is below this, the style's statistics "
+        "alone colour the content's own latents (eased over 0.15 of similarity and a quarter patch); -1: never",
+        low=-1.0, high=1.0,
+    )  # fmt: skip
     smooth_s: float = option(
         1 / 30, "Gaussian low-pass of the decoded motion, sigma in seconds (0: none; default one frame at 30 fps)",
         low=0.0, high=10.0,
@@ -87,10 +100,13 @@ class TransferConfig:
         low=0.0, high=10.0,
     )  # fmt: skip
     cleanup: bool = option(True, "plant the feet: contacts pinned by two-joint leg IK")
-    adjust_root: bool = option(
-        False,
-        "move the root with the stance foot before the clean-up (the path may drift from the content's)",
-    )
+    root_follows_legs: float = option(
+        0.5,
+        "the share of the stance feet's drift the root takes before the clean-up: 0 keeps the content's path "
+        "exactly (the legs stretch to cover it), 1 moves the root with the legs' stride (the path may end "
+        "short or long)",
+        low=0.0, high=1.0,
+    )  # fmt: skip
 
     def __post_init__(self) -> None:
         for spec in fields(self):

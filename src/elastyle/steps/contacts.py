@@ -25,6 +25,12 @@ ENTER_SPEED_LEGS_S = 0.5  # ... and slower than this (40 cm/s) starts a contact
 EXIT_HEIGHT_OF_LEG = 0.06  # the contact lasts until both joints are higher than this ...
 EXIT_SPEED_LEGS_S = 1.0  # ... or faster than this (80 cm/s)
 MIN_CONTACT_S = 0.05  # shorter contacts are dropped and shorter gaps between contacts are filled
+# a foot that slides while low, drifting back against the direction of travel, still carries the body (a
+# stride shorter than the ground the root covers); a swinging foot moves ahead of the pelvis
+TRAVEL_SPEED_LEGS_S = 0.5  # the pelvis moves faster than this (40 cm/s): there is a direction of travel
+BEHIND_OF_TRAVEL = 0.25  # ... and falls behind the pelvis by this share of its speed (a foot pushing off,
+# already accelerating, is not held)
+ENTER_VERTICAL_LEGS_S = 0.2  # and a sliding foot enters contact when it rises or sinks slower than this
 
 
 def ground_level(motion: Motion, positions: FloatArray | None = None) -> float:
@@ -37,10 +43,13 @@ def ground_level(motion: Motion, positions: FloatArray | None = None) -> float:
 def detect_contacts(motion: Motion, positions: FloatArray | None = None) -> BoolArray:
     """(T, F) True where foot f is planted, F = len(find_limbs(skeleton).toes).
 
-    positions: (T, J, 3) the clip's world positions when already known (at least toes and ankles).
-    A foot enters contact when its toe or its ankle is both near its ground level and slow horizontally,
-    and leaves when neither is (looser thresholds: hysteresis). Contacts and gaps shorter than
-    `MIN_CONTACT_S` are removed.
+    positions: (T, J, 3) the clip's world positions when already known (at least the pelvis, toes and
+    ankles). A foot enters contact when its toe or its ankle is near its ground level and either slow
+    horizontally or, while the pelvis travels, level and not moving ahead of the pelvis along the direction
+    of travel (a stance foot whose stride is shorter than the ground the root covers slides back, a swing
+    foot overtakes the pelvis). It leaves when neither joint is near the ground and held (looser thresholds:
+    hysteresis). Contacts and gaps shorter than `MIN_CONTACT_S` are removed. Walking forwards, backwards or
+    sideways, running and turning on the spot alike: nothing assumes which way the body faces.
     """
     limbs = find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
@@ -53,12 +62,19 @@ def detect_contacts(motion: Motion, positions: FloatArray | None = None) -> Bool
     heights = heights - np.percentile(
         heights, GROUND_PERCENTILE, axis=(0, 2), keepdims=True, method=PERCENTILE_METHOD
     )
-    horizontal = positions[:, joints][..., [0, 2]]  # (T, 2, F, 2)
-    velocity = np.gradient(horizontal, axis=0) * motion.fps if motion.num_frames > 1 else 0 * horizontal
-    speed_legs_s = lengths(velocity) / leg  # (T, 2, F)
-    enter = np.any((heights < ENTER_HEIGHT_OF_LEG * leg) & (speed_legs_s < ENTER_SPEED_LEGS_S), axis=1)
-    stay = np.any((heights < EXIT_HEIGHT_OF_LEG * leg) & (speed_legs_s < EXIT_SPEED_LEGS_S), axis=1)
-    contacts = _hysteresis(enter, stay)  # (T, F)
+    per_second = motion.fps / leg  # a frame step in file units, as leg lengths per second
+    velocity = _frame_steps(positions[:, joints]) * per_second  # (T, 2, F, 3) legs/s
+    speed = lengths(velocity[..., [0, 2]])  # (T, 2, F)
+    pelvis = _frame_steps(positions[:, motion.skeleton.pelvis])[:, [0, 2]] * per_second  # (T, 2)
+    pelvis_speed = lengths(pelvis)  # (T,)
+    travel = pelvis / np.maximum(pelvis_speed, 1e-12)[:, None]  # (T, 2) unit direction of travel
+    ahead = np.einsum("tjfc,tc->tjf", velocity[..., [0, 2]], travel) - pelvis_speed[:, None, None]
+    travelling = (pelvis_speed > TRAVEL_SPEED_LEGS_S)[:, None, None]
+    behind = (ahead < -BEHIND_OF_TRAVEL * pelvis_speed[:, None, None]) & travelling  # (T, 2, F)
+    level = np.abs(velocity[..., 1]) < ENTER_VERTICAL_LEGS_S
+    enter = (heights < ENTER_HEIGHT_OF_LEG * leg) & ((speed < ENTER_SPEED_LEGS_S) | (behind & level))
+    stay = (heights < EXIT_HEIGHT_OF_LEG * leg) & ((speed < EXIT_SPEED_LEGS_S) | behind)
+    contacts = _hysteresis(np.any(enter, axis=1), np.any(stay, axis=1))  # (T, F)
     min_frames = max(1, int(np.ceil(MIN_CONTACT_S * motion.fps)))
     for foot in range(contacts.shape[1]):
         for start, stop in mask_runs(~contacts[:, foot]):  # fill short gaps between two contacts
@@ -68,6 +84,11 @@ def detect_contacts(motion: Motion, positions: FloatArray | None = None) -> Bool
             if stop - start < min_frames:
                 contacts[start:stop, foot] = False
     return contacts
+
+
+def _frame_steps(points: FloatArray) -> FloatArray:
+    """Per-frame displacement (T, ...) of points (T, ..., 3): central differences, zero for one frame."""
+    return np.gradient(points, axis=0) if len(points) > 1 else np.zeros_like(points)
 
 
 def _hysteresis(enter: BoolArray, stay: BoolArray) -> BoolArray:

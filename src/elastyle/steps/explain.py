@@ -9,6 +9,7 @@ import numpy as np
 
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.library import StyleLibrary
+from elastyle.steps.timeline import GRID_STEP
 from elastyle.steps.track import StyleTrack, requested_patch_frames, shortened_patch_note
 from elastyle.types import FloatArray
 
@@ -20,14 +21,20 @@ def explain(
     fps: float,
     config: TransferConfig,
 ) -> dict[str, Any]:
-    """Per output patch: its style clip (mirrored or not), start frame, stretch factor, similarity and
-    times; content_time (T_out,) is the content frame of each output frame."""
+    """Per output patch: its style clip (mirrored or not), start frame, stretch factor, similarity, times,
+    and how it was used (mode: swap, blend, or statistics where the fallback took over, with the
+    statistics' mean share); content_time (T_out,) is the content frame of each output frame."""
     styles = []
     notes: list[str] = []  # automatic adjustments, as printed
     for track, library in zip(tracks, libraries):
         rows = []
         for patch in track.patches:
             clip, frame = library.locate(patch.style_start)
+            span = slice(
+                int(patch.content_start / GRID_STEP),
+                int((patch.content_start + patch.content_frames) / GRID_STEP),
+            )
+            fallback = float(np.mean(track.fallback[span])) if len(track.fallback[span]) else 0.0
             start_out = float(np.searchsorted(content_time, patch.content_start)) / fps
             rows.append(
                 {
@@ -39,6 +46,8 @@ def explain(
                     "style_frames": track.patch_frames,
                     "stretch": round(patch.content_frames / track.patch_frames, 4),
                     "similarity": round(patch.similarity, 4),
+                    "mode": "swap" if fallback < 0.01 else "statistics" if fallback > 0.99 else "blend",
+                    "statistics_share": round(fallback, 3),
                 }
             )
         entry: dict[str, Any] = {"clips": sorted(set(library.names)), "patches": rows}
@@ -52,6 +61,8 @@ def explain(
         "placement": config.placement,
         "patch_s": config.patch_s,
         "stretch": config.stretch,
+        "action_weight": config.action_weight,
+        "fallback_below": config.fallback_below,
         "model_fps": fps,
         "output_frames": int(len(content_time)),
         "styles": styles,

@@ -17,6 +17,7 @@ from elastyle.core.motion import Motion
 from elastyle.core.threads import one_blas_thread
 from elastyle.errors import ElastyleError, SkeletonMismatchError
 from elastyle.model.file import StyleModel
+from elastyle.steps.action import action_channels
 from elastyle.steps.search import StyleWindows
 from elastyle.steps.whiten import LatentStats
 from elastyle.types import FloatArray, IntArray
@@ -27,15 +28,16 @@ log = logging.getLogger(__name__)
 @dataclass(frozen=True, eq=False)
 class StyleLibrary:
     """Encoded style clips: names and mirrored flags (K,), clip_starts (K,) library frames, latents (N, Z)
-    end to end, and their pooled statistics."""
+    and action descriptors (N, A) (`steps.action`) end to end, and the latents' pooled statistics."""
 
     names: list[str]
     mirrored: list[bool]
     clip_starts: IntArray
     latents: FloatArray
+    actions: FloatArray
     stats: LatentStats
     _white: dict[float, FloatArray] = field(default_factory=dict)
-    _windows: dict[tuple[int, float], StyleWindows] = field(default_factory=dict)
+    _windows: dict[tuple[int, float, float], StyleWindows] = field(default_factory=dict)
 
     def white(self, floor: float) -> FloatArray:
         """The library's latents (N, Z) whitened with its own pooled statistics (eigenvalue `floor`)."""
@@ -43,11 +45,13 @@ class StyleLibrary:
             self._white[floor] = self.stats.whiten(self.latents, floor)
         return self._white[floor]
 
-    def windows(self, patch_frames: int, floor: float) -> StyleWindows:
-        """The whitened library's windows of `patch_frames`, ready for the search."""
-        key = (patch_frames, floor)
+    def windows(self, patch_frames: int, floor: float, action_weight: float) -> StyleWindows:
+        """The library's windows of `patch_frames` as the search compares them: whitened latents beside
+        the action descriptors times `action_weight` (`match_frames`)."""
+        key = (patch_frames, floor, action_weight)
         if key not in self._windows:
-            self._windows[key] = StyleWindows(self.white(floor), self.clip_starts, patch_frames)
+            frames = match_frames(self.white(floor), self.actions, action_weight)
+            self._windows[key] = StyleWindows(frames, self.clip_starts, patch_frames)
         return self._windows[key]
 
     def locate(self, library_frame: int) -> tuple[int, int]:
@@ -62,13 +66,23 @@ class StyleLibrary:
 
     @staticmethod
     def of_latents(
-        names: Sequence[str], mirrored: Sequence[bool], latents: Sequence[FloatArray]
+        names: Sequence[str],
+        mirrored: Sequence[bool],
+        latents: Sequence[FloatArray],
+        actions: Sequence[FloatArray],
     ) -> StyleLibrary:
-        """A library from each clip's latents (T_k, Z)."""
+        """A library from each clip's latents (T_k, Z) and action descriptors (T_k, A)."""
         starts = np.cumsum([0] + [z.shape[0] for z in latents[:-1]]).astype(np.int64)
         return StyleLibrary(
-            list(names), list(mirrored), starts, np.concatenate(latents), LatentStats.of(latents)
-        )
+            list(names), list(mirrored), starts, np.concatenate(latents), np.concatenate(actions),
+            LatentStats.of(latents),
+        )  # fmt: skip
+
+
+def match_frames(white_latents: FloatArray, actions: FloatArray, action_weight: float) -> FloatArray:
+    """What the search compares, per frame (T, Z + A): the whitened latents, and the action descriptors
+    times `action_weight` (0: the latents alone, the report's matching)."""
+    return np.concatenate([white_latents, action_weight * actions], axis=1)
 
 
 @one_blas_thread
@@ -91,7 +105,8 @@ def prepare_style(
             except SkeletonMismatchError:
                 log.info("%s: no left/right pairs, style used without its mirror", name)
     latents = [model.encode_motion(m)[0] for _, _, m in clips]
-    return StyleLibrary.of_latents([c[0] for c in clips], [c[1] for c in clips], latents)
+    actions = [action_channels(m) for _, _, m in clips]
+    return StyleLibrary.of_latents([c[0] for c in clips], [c[1] for c in clips], latents, actions)
 
 
 def as_library(

@@ -13,25 +13,29 @@ from typing import NamedTuple
 import numpy as np
 
 from elastyle.core.resample import interpolate_rows
+from elastyle.core.smoothing import smooth
 from elastyle.errors import ClipTooShortError
 from elastyle.steps.config import TransferConfig
-from elastyle.steps.library import StyleLibrary
+from elastyle.steps.library import StyleLibrary, match_frames
 from elastyle.steps.search import Patch, search_fixed, search_sequential
 from elastyle.steps.whiten import LatentStats, adain
 from elastyle.types import FloatArray
 
 log = logging.getLogger(__name__)
 MIN_PATCH_FRAMES = 4
+FALLBACK_RAMP = 0.15  # the fallback to statistics rises from 0 to 1 over this much similarity below its threshold
 
 
 class StyleTrack(NamedTuple):
     """latents (G, Z) coloured, on the content-time grid; log_rate (G,); the matched patches (empty for
-    the statistics-only methods) and their length L in frames."""
+    the statistics-only methods) and their length L in frames; fallback (G,), 0 to 1, the share of the
+    style's statistics alone where no style window matched well (1 for the statistics-only methods)."""
 
     latents: FloatArray
     log_rate: FloatArray
     patches: list[Patch]
     patch_frames: int
+    fallback: FloatArray
 
 
 def requested_patch_frames(config: TransferConfig, fps: float) -> int:
@@ -48,17 +52,23 @@ def shortened_patch_note(patch_frames: int, config: TransferConfig, fps: float) 
 
 
 def style_track(
-    content_latents: FloatArray, library: StyleLibrary, grid: FloatArray, config: TransferConfig, fps: float
+    content_latents: FloatArray,
+    content_actions: FloatArray,
+    library: StyleLibrary,
+    grid: FloatArray,
+    config: TransferConfig,
+    fps: float,
 ) -> StyleTrack:
-    """The track of one library for content latents (T, Z) on grid times (G,) in content frames."""
+    """The track of one library for content latents (T, Z) and action descriptors (T, A) on grid times
+    (G,) in content frames."""
     content_stats = LatentStats.of([content_latents])
     if config.method == "wct":
         floor = config.whiten_floor
         coloured = library.stats.colour(content_stats.whiten(content_latents, floor), floor)
-        return StyleTrack(interpolate_rows(coloured, grid), np.zeros_like(grid), [], 0)
+        return StyleTrack(interpolate_rows(coloured, grid), np.zeros_like(grid), [], 0, np.ones_like(grid))
     if config.method == "adain":
         styled = adain(content_latents, [content_latents], [library.latents])
-        return StyleTrack(interpolate_rows(styled, grid), np.zeros_like(grid), [], 0)
+        return StyleTrack(interpolate_rows(styled, grid), np.zeros_like(grid), [], 0, np.ones_like(grid))
     wanted = requested_patch_frames(config, fps)
     patch_frames = min(wanted, library.longest_clip)
     if patch_frames < MIN_PATCH_FRAMES:
@@ -68,34 +78,55 @@ def style_track(
     if patch_frames < wanted:
         log.info("note: %s", shortened_patch_note(patch_frames, config, fps))
     # whiten, then match: the elastic search over stretched content patches, in two half-shifted sequences
-    windows = library.windows(patch_frames, config.whiten_floor)
+    windows = library.windows(patch_frames, config.whiten_floor, config.action_weight)
     white_content = content_stats.whiten(content_latents, config.whiten_floor)
     search = search_sequential if config.placement == "sequential" else search_fixed
-    patches, shifted = search(white_content, windows, config.source_lengths(patch_frames, fps))
+    content_frames = match_frames(white_content, content_actions, config.action_weight)
+    patches, shifted = search(content_frames, windows, config.source_lengths(patch_frames, fps))
     # place and cross-fade: each grid time reads both sequences' style windows, weighted by a triangle
-    position_a, weight_a, log_rate = _patch_sample(grid, patches, patch_frames)
-    position_b, weight_b, _ = _patch_sample(grid, shifted, patch_frames)
+    position_a, weight_a, log_rate, similarity_a = _patch_sample(grid, patches, patch_frames)
+    position_b, weight_b, _, similarity_b = _patch_sample(grid, shifted, patch_frames)
     library_white = library.white(config.whiten_floor)
+    total = weight_a + weight_b
     white = (
         weight_a[:, None] * interpolate_rows(library_white, position_a)
         + weight_b[:, None] * interpolate_rows(library_white, position_b)
-    ) / (weight_a + weight_b)[:, None]
+    ) / total[:, None]
+    # fall back to the style's statistics alone where the best window is a poor match (another action)
+    similarity = (weight_a * similarity_a + weight_b * similarity_b) / total
+    step = float(grid[1] - grid[0]) if len(grid) > 1 else 1.0
+    fallback = fallback_share(similarity, config.fallback_below, 0.25 * patch_frames / step)
+    if np.any(fallback > 0):
+        own = interpolate_rows(white_content, grid)  # the content's own whitened latents (G, Z)
+        white = (1 - fallback)[:, None] * white + fallback[:, None] * own
+        log_rate = (1 - fallback) * log_rate  # the content's own pace where it keeps its action
     # colour with the style's statistics
-    return StyleTrack(library.stats.colour(white, config.whiten_floor), log_rate, patches, patch_frames)
+    coloured = library.stats.colour(white, config.whiten_floor)
+    return StyleTrack(coloured, log_rate, patches, patch_frames, fallback)
+
+
+def fallback_share(similarity: FloatArray, below: float, ease_steps: float) -> FloatArray:
+    """(G,) 0 where the matched windows' similarity (G,) is at least `below`, rising smoothly to 1 at
+    `FALLBACK_RAMP` under it, then eased in and out in time (Gaussian, sigma `ease_steps` grid steps)."""
+    if below <= -1:
+        return np.zeros_like(similarity)
+    x = np.clip((below - similarity) / FALLBACK_RAMP, 0.0, 1.0)
+    return np.clip(smooth(x * x * (3 - 2 * x), ease_steps), 0.0, 1.0)
 
 
 def _patch_sample(
     grid: FloatArray, patches: list[Patch], patch_frames: int
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """For each grid time (G,): library position, cross-fade weight and log rate of the covering patch.
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """For each grid time (G,): library position, cross-fade weight, log rate and similarity of the
+    covering patch.
 
     Patch i covers content times [start_i - 0.5, start_i + frames_i - 0.5); patches are in content order
     and do not overlap. Grid times no patch covers get zeros.
     """
     if not patches:
-        return np.zeros_like(grid), np.zeros_like(grid), np.zeros_like(grid)
-    starts, frames, style_starts = np.array(
-        [(p.content_start, p.content_frames, p.style_start) for p in patches], dtype=np.float64
+        return np.zeros_like(grid), np.zeros_like(grid), np.zeros_like(grid), np.zeros_like(grid)
+    starts, frames, style_starts, similarities = np.array(
+        [(p.content_start, p.content_frames, p.style_start, p.similarity) for p in patches], dtype=np.float64
     ).T  # (P,) each
     which = np.clip(np.searchsorted(starts - 0.5, grid, side="right") - 1, 0, len(patches) - 1)  # (G,)
     phase = (grid - starts[which] + 0.5) / frames[which]  # in [0, 1) inside the patch
@@ -104,4 +135,4 @@ def _patch_sample(
     position = np.where(inside, style_starts[which] + np.clip(frame, 0, patch_frames - 1), 0.0)
     weight = np.where(inside, np.maximum(1 - np.abs(2 * phase - 1), 1e-3), 0.0)
     log_rate = np.where(inside, np.log(patch_frames / frames[which]), 0.0)
-    return position, weight, log_rate
+    return position, weight, log_rate, np.where(inside, similarities[which], 0.0)

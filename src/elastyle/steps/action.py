@@ -1,0 +1,56 @@
+"""What the body does, frame by frame: the action descriptors the patch search matches besides the latents.
+
+The model's latents carry the pose's manner but little of where the body goes or which hand is up, so a
+search on latents alone swaps a content window for a style window that performs another action (a
+sideways step for a forward one, the left hand for the right). These channels say what defines the action,
+in leg lengths (per second) so any unit, skeleton size and frame rate compare alike. Axes +Y up; the
+heading frame turns with the pelvis's yaw (+Z forward).
+
+    travel (3)       pelvis velocity in the heading frame, forward and sideways (legs/s); turning (rad/s)
+    each hand (4)    position relative to the pelvis in the heading frame (legs), and speed (legs/s)
+    each foot (1)    ankle height above its own ground level (legs): lifted, planted
+
+Left and right keep their own channels, so a mirrored style window is close only where the content's
+sides agree with it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from elastyle.core.body import find_limbs, heading_yaw, leg_length, pelvis_forward_local, yaw_matrices
+from elastyle.core.motion import Motion
+from elastyle.core.rotations import lengths
+from elastyle.core.smoothing import smooth
+from elastyle.types import FloatArray
+
+SMOOTH_S = 0.1  # velocities are low-passed over about this long (sigma 0.4 of it), so noise does not count
+GROUND_PERCENTILE = 5.0
+
+
+def action_channels(motion: Motion) -> FloatArray:
+    """(T, A) action descriptors of a clip; A = 3 + 4 hands + feet (see the module's table)."""
+    skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
+    leg = leg_length(skeleton, limbs)  # half the body's height without legs
+    world_rotations, positions = motion.world([skeleton.pelvis, *limbs.hands, *limbs.ankles])
+    pelvis = positions[:, skeleton.pelvis]  # (T, 3)
+    yaw = heading_yaw(world_rotations[:, skeleton.pelvis], pelvis_forward_local(skeleton))  # (T,)
+    to_heading = np.swapaxes(yaw_matrices(yaw), -1, -2)  # (T, 3, 3) world -> heading frame
+    per_second = motion.fps / leg
+    sigma = 0.4 * SMOOTH_S * motion.fps
+    travel = np.einsum("tij,tj->ti", to_heading, _steps(pelvis)) * per_second  # (T, 3) legs/s
+    turning = _steps(yaw) * motion.fps  # (T,) rad/s
+    channels = [travel[:, [2, 0]], turning[:, None]]
+    if len(limbs.hands):
+        hands = np.einsum("tij,thj->thi", to_heading, positions[:, limbs.hands] - pelvis[:, None]) / leg
+        hand_speed = lengths(_steps(hands)) * motion.fps  # (T, H) legs/s, relative to the pelvis
+        channels += [hands.reshape(motion.num_frames, -1), hand_speed]
+    if len(limbs.ankles):
+        heights = positions[:, limbs.ankles, 1]
+        channels.append((heights - np.percentile(heights, GROUND_PERCENTILE, axis=0)) / leg)
+    return smooth(np.concatenate(channels, axis=1), sigma)
+
+
+def _steps(values: FloatArray) -> FloatArray:
+    """Per-frame change (T, ...) by central differences; zero for a single frame."""
+    return np.gradient(values, axis=0) if len(values) > 1 else np.zeros_like(values)
