@@ -116,7 +116,7 @@ def transfer(
     styled = decode_plain(model, on_output_frames(latents, grid, content_time), root_out, config.smooth_s)
     _check_finite(styled, "decoding", content_name)
     if config.decode == "plain":
-        motion = _plain_output(styled, content, working.num_frames, content_time, config)
+        motion = _plain_output(styled, content, content_time, config, fps)
     else:
         base_latents = on_output_frames(interpolate_rows(content_latents, grid), grid, content_time)
         base = decode_plain(model, base_latents, root_out, config.smooth_s)
@@ -137,22 +137,16 @@ def transfer(
 
 
 def _plain_output(
-    decoded: Motion,
-    content: Motion,
-    num_content_frames: int,
-    content_time: FloatArray,
-    config: TransferConfig,
+    decoded: Motion, content: Motion, content_time: FloatArray, config: TransferConfig, fps: float
 ) -> Motion:
-    """The report's output: the decoded clip (model rate), on the content's clock if asked, cleaned up and
-    resampled to the content's frame rate."""
-    if config.timing == "content":  # the style's manner on the content's clock, by the inverse map
-        frames = np.arange(len(content_time))
-        decoded = decoded.sample(np.interp(np.arange(num_content_frames), content_time, frames))
-    # the content's own skeleton (its offsets and End Sites), so the output drops into the content's rig
-    motion = Motion(content.skeleton, decoded.rotations, decoded.translations, decoded.fps)
-    if config.cleanup:
-        motion = _clean_up(motion, config)
-    return motion.resample(content.fps)
+    """The report's output: the decoded clip (model rate) read at the output's frames on the content's
+    frame rate (the same frames as residual decoding; on the content's clock with `timing` content), on
+    the content's own skeleton (its offsets and End Sites, so the output drops into the content's rig),
+    cleaned up."""
+    positions, _ = output_frames(content_time, fps, content.fps, content.num_frames, config.timing)
+    sampled = decoded.sample(positions)
+    motion = Motion(content.skeleton, sampled.rotations, sampled.translations, content.fps)
+    return _clean_up(motion, config) if config.cleanup else motion
 
 
 def _clean_up(motion: Motion, config: TransferConfig) -> Motion:

@@ -70,7 +70,7 @@ class TransferConfig:
         low=0.0, high=10.0, low_open=True,
     )  # fmt: skip
     action_weight: float = option(
-        0.0,
+        2.0,
         "matching: weight of what the body does (travel, hands, feet; steps.action) beside the whitened "
         "latents, so a window performing another action is not swapped in (0: latents alone, the report's "
         "matching)",

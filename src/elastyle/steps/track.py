@@ -23,7 +23,9 @@ from elastyle.types import FloatArray
 
 log = logging.getLogger(__name__)
 MIN_PATCH_FRAMES = 4
-FALLBACK_RAMP = 0.15  # the fallback to statistics rises from 0 to 1 over this much similarity below its threshold
+FALLBACK_RAMP = (
+    0.15  # the fallback to statistics rises from 0 to 1 over this much similarity below its threshold
+)
 
 
 class StyleTrack(NamedTuple):
