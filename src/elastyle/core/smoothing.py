@@ -1,4 +1,4 @@
-"""The one smoother: a Gaussian low-pass along time, edges held constant."""
+"""Along time: the one smoother (a Gaussian low-pass, edges held constant) and per-frame differences."""
 
 from __future__ import annotations
 
@@ -23,3 +23,9 @@ def smooth(values: FloatArray, sigma_frames: float) -> FloatArray:
     padded = np.pad(flat, ((radius, radius), (0, 0)), mode="edge")  # (T + 2r, N)
     windows = np.lib.stride_tricks.sliding_window_view(padded, 2 * radius + 1, axis=0)  # (T, N, K)
     return (windows @ kernel).reshape(values.shape)
+
+
+def frame_steps(values: FloatArray) -> FloatArray:
+    """Per-frame change (T, ...) of (T, ...) values by central differences (one-sided at the ends); zero
+    for a single frame. Times the frame rate, a velocity."""
+    return np.gradient(values, axis=0) if len(values) > 1 else np.zeros_like(values)

@@ -6,6 +6,7 @@ import numpy as np
 
 from elastyle.core.body import centimetres_per_unit, find_limbs
 from elastyle.core.motion import Motion
+from elastyle.core.smoothing import frame_steps
 from elastyle.types import BoolArray, FloatArray
 
 
@@ -44,7 +45,7 @@ def floor_skating_cm_s(motion: Motion, positions: FloatArray | None = None) -> f
         return float("nan")
     feet = positions[:, joints] * centimetres_per_unit(motion.skeleton)  # (T, F, 3) cm
     height = feet[..., 1] - np.percentile(feet[..., 1], 5, axis=0)  # (T, F) above each toe's own floor
-    step = np.gradient(feet, axis=0) * motion.fps  # (T, F, 3) cm/s, central differences
+    step = frame_steps(feet) * motion.fps  # (T, F, 3) cm/s, central differences
     touching = (height < FLOOR_BAND_CM) & (np.abs(step[..., 1]) < FLOOR_VERTICAL_CM_S)
     weight = np.clip(2 - 2 ** (height / FLOOR_BAND_CM), 0.0, 1.0) * touching
     if weight.sum() <= 0:

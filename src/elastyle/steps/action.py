@@ -21,11 +21,11 @@ import numpy as np
 from elastyle.core.body import find_limbs, heading_yaw, leg_length, pelvis_forward_local, yaw_matrices
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import lengths
-from elastyle.core.smoothing import smooth
+from elastyle.core.smoothing import frame_steps, smooth
+from elastyle.steps.contacts import GROUND_PERCENTILE, PERCENTILE_METHOD
 from elastyle.types import FloatArray
 
 SMOOTH_S = 0.1  # velocities are low-passed over about this long (sigma 0.4 of it), so noise does not count
-GROUND_PERCENTILE = 5.0
 
 
 def action_channels(motion: Motion) -> FloatArray:
@@ -38,19 +38,15 @@ def action_channels(motion: Motion) -> FloatArray:
     to_heading = np.swapaxes(yaw_matrices(yaw), -1, -2)  # (T, 3, 3) world -> heading frame
     per_second = motion.fps / leg
     sigma = 0.4 * SMOOTH_S * motion.fps
-    travel = np.einsum("tij,tj->ti", to_heading, _steps(pelvis)) * per_second  # (T, 3) legs/s
-    turning = _steps(yaw) * motion.fps  # (T,) rad/s
+    travel = np.einsum("tij,tj->ti", to_heading, frame_steps(pelvis)) * per_second  # (T, 3) legs/s
+    turning = frame_steps(yaw) * motion.fps  # (T,) rad/s
     channels = [travel[:, [2, 0]], turning[:, None]]
     if len(limbs.hands):
         hands = np.einsum("tij,thj->thi", to_heading, positions[:, limbs.hands] - pelvis[:, None]) / leg
-        hand_speed = lengths(_steps(hands)) * motion.fps  # (T, H) legs/s, relative to the pelvis
+        hand_speed = lengths(frame_steps(hands)) * motion.fps  # (T, H) legs/s, relative to the pelvis
         channels += [hands.reshape(motion.num_frames, -1), hand_speed]
     if len(limbs.ankles):
         heights = positions[:, limbs.ankles, 1]
-        channels.append((heights - np.percentile(heights, GROUND_PERCENTILE, axis=0)) / leg)
+        ground = np.percentile(heights, GROUND_PERCENTILE, axis=0, method=PERCENTILE_METHOD)
+        channels.append((heights - ground) / leg)
     return smooth(np.concatenate(channels, axis=1), sigma)
-
-
-def _steps(values: FloatArray) -> FloatArray:
-    """Per-frame change (T, ...) by central differences; zero for a single frame."""
-    return np.gradient(values, axis=0) if len(values) > 1 else np.zeros_like(values)

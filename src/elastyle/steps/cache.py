@@ -53,7 +53,7 @@ def model_fingerprint(model: StyleModel) -> str:
     return digest.hexdigest()
 
 
-CACHE_VERSION = 3  # 2: libraries encoded on one BLAS thread (core.threads); 3: with action descriptors
+CACHE_VERSION = 4  # 2: one BLAS thread; 3: action descriptors; 4: their ground by nearest sample
 
 
 def library_key(model: StyleModel, clips: list[ClipRef], mirror_style: bool) -> str:

@@ -14,6 +14,7 @@ import numpy as np
 from elastyle.core.body import Limbs, find_limbs, leg_length
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import lengths
+from elastyle.core.smoothing import frame_steps
 from elastyle.types import BoolArray, FloatArray
 
 GROUND_PERCENTILE = 5.0  # a foot joint's ground level: this percentile of its heights over the clip
@@ -63,9 +64,9 @@ def detect_contacts(motion: Motion, positions: FloatArray | None = None) -> Bool
         heights, GROUND_PERCENTILE, axis=(0, 2), keepdims=True, method=PERCENTILE_METHOD
     )
     per_second = motion.fps / leg  # a frame step in file units, as leg lengths per second
-    velocity = _frame_steps(positions[:, joints]) * per_second  # (T, 2, F, 3) legs/s
+    velocity = frame_steps(positions[:, joints]) * per_second  # (T, 2, F, 3) legs/s
     speed = lengths(velocity[..., [0, 2]])  # (T, 2, F)
-    pelvis = _frame_steps(positions[:, motion.skeleton.pelvis])[:, [0, 2]] * per_second  # (T, 2)
+    pelvis = frame_steps(positions[:, motion.skeleton.pelvis])[:, [0, 2]] * per_second  # (T, 2)
     pelvis_speed = lengths(pelvis)  # (T,)
     travel = pelvis / np.maximum(pelvis_speed, 1e-12)[:, None]  # (T, 2) unit direction of travel
     ahead = np.einsum("tjfc,tc->tjf", velocity[..., [0, 2]], travel) - pelvis_speed[:, None, None]
@@ -84,11 +85,6 @@ def detect_contacts(motion: Motion, positions: FloatArray | None = None) -> Bool
             if stop - start < min_frames:
                 contacts[start:stop, foot] = False
     return contacts
-
-
-def _frame_steps(points: FloatArray) -> FloatArray:
-    """Per-frame displacement (T, ...) of points (T, ..., 3): central differences, zero for one frame."""
-    return np.gradient(points, axis=0) if len(points) > 1 else np.zeros_like(points)
 
 
 def _hysteresis(enter: BoolArray, stay: BoolArray) -> BoolArray:
