@@ -15,6 +15,7 @@ import pytest
 from elastyle import read_bvh, write_bvh
 from elastyle.core.body import find_limbs
 from elastyle.core.motion import Motion
+from elastyle.core.parts import body_parts
 from elastyle.core.skeleton import Skeleton
 from elastyle.eval.metrics import cadence_steps_s
 from elastyle.io.dataset import ClipRef
@@ -65,8 +66,12 @@ def walk(dataset_clips: list[ClipRef]) -> Motion:
 def test_legs_feet_and_cadence_on_any_naming(walk: Motion, scheme: str) -> None:
     other = _renamed(walk, scheme)
     ours, theirs = find_limbs(walk.skeleton), find_limbs(other.skeleton)
-    for field in ("toes", "ankles", "hips", "hands"):
+    for field in ("toes", "ankles", "hips", "hands", "arm_roots"):
         np.testing.assert_array_equal(getattr(theirs, field), getattr(ours, field), err_msg=field)
+    parts, their_parts = body_parts(walk.skeleton), body_parts(other.skeleton)  # per-part options' parts
+    assert list(their_parts) == ["legs", "spine", "left-arm", "right-arm"] == list(parts)
+    for name, joints in parts.items():
+        np.testing.assert_array_equal(their_parts[name], joints, err_msg=name)
     assert cadence_steps_s(other) == pytest.approx(cadence_steps_s(walk))
     np.testing.assert_allclose(clean_feet(other).positions(), clean_feet(walk).positions(), atol=1e-9)
     if scheme != "unnamed":  # names give mirror pairs too (mirroring and the style library's mirrors)

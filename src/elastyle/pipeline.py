@@ -21,24 +21,32 @@ Each step is one call into the module that owns it; docs/method.md describes eac
 from __future__ import annotations
 
 import logging
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from elastyle.core.body import no_legs_note
 from elastyle.core.motion import Motion
+from elastyle.core.parts import parse_parts, part_joints
 from elastyle.core.resample import interpolate_rows
 from elastyle.core.threads import one_blas_thread
 from elastyle.errors import ClipTooShortError, ResultError
 from elastyle.model.depth import depth_warning, reconstruction_error_cm
 from elastyle.model.file import StyleModel, load_model
-from elastyle.steps.action import action_channels
+from elastyle.steps.action import action_channels, part_channels
 from elastyle.steps.cleanup import adjust_root_speed, clean_feet
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.contacts import detect_contacts
-from elastyle.steps.decode import blend_by_strength, compose_residual, decode_plain, output_frames
+from elastyle.steps.decode import (
+    blend_by_strength,
+    compose_residual,
+    decode_plain,
+    frames_of,
+    output_frames,
+)
 from elastyle.steps.explain import explain
+from elastyle.steps.keep import keep_target, keep_weights
 from elastyle.steps.library import StyleLibrary, as_library
 from elastyle.steps.schedule import Schedule
 from elastyle.steps.timeline import content_grid, mix_tracks, on_output_frames, output_content_times
@@ -67,6 +75,7 @@ def transfer(
     second_weight: float | str | Schedule = 0.0,
     style_names: Sequence[str] | None = None,
     second_style_names: Sequence[str] | None = None,
+    part_styles: Mapping[str, StyleInput] | None = None,
     content_name: str = "content",
     **options: Any,
 ) -> TransferResult:
@@ -76,6 +85,8 @@ def transfer(
     config, options: a `TransferConfig` and/or its fields by name (`strength=0.5, method="rigid"`).
     second_style, second_weight: a second library and its share, 0 to 1 (keyframed in content seconds for
         a transition from `style` to `second_style`, constant for a blend).
+    part_styles: body part names (`core.parts`: legs, spine, left-arm, right-arm, arms) and the style
+        whose manner those parts take instead (on the output's one clock, which `style` sets).
     """
     config = TransferConfig.of(config, **options)
     model = model or load_model()
@@ -90,6 +101,12 @@ def transfer(
     libraries = [as_library(model, style, style_names, config.mirror_style)]
     if second_style is not None:
         libraries.append(as_library(model, second_style, second_style_names, config.mirror_style))
+    kept = part_joints(content.skeleton, config.kept_parts, content_name)  # (K,) joints kept as performed
+    by_part = [
+        (part_joints(content.skeleton, parse_parts(names, "--style-part"), content_name),
+         as_library(model, part_style, None, config.mirror_style))
+        for names, part_style in (part_styles or {}).items()
+    ]  # fmt: skip
 
     # features and encode: the content's latents (T, Z) and the root path a transfer keeps
     content_latents, root = model.encode_motion(working)
@@ -101,7 +118,10 @@ def transfer(
     # whiten, match, place, cross-fade and colour: one track per style library on a content-time grid
     grid = content_grid(working.num_frames)  # (G,) content frames
     actions = action_channels(working)  # (T, A) what the body does, matched beside the latents
-    tracks = [style_track(content_latents, actions, library, grid, config, fps) for library in libraries]
+    columns = part_channels(working.skeleton)  # each body part's action columns
+    tracks = [
+        style_track(content_latents, actions, library, grid, config, fps, columns) for library in libraries
+    ]
     # retime: strength and shares mix the tracks; the mixed rate gives each output frame's content time
     grid_s = grid / fps
     strength = config.strength_schedule.at(grid_s)
@@ -109,19 +129,32 @@ def transfer(
     if second_style is not None:
         mix = _as_schedule(second_weight).at(grid_s)
         shares = [1 - mix, mix]
-    latents, log_rate = mix_tracks(interpolate_rows(content_latents, grid), strength, tracks, shares)
+    content_on_grid = interpolate_rows(content_latents, grid)  # (G, Z)
+    latents, log_rate = mix_tracks(content_on_grid, strength, tracks, shares)
     content_time = output_content_times(grid, log_rate)  # (T_out,) content frames
     # decode on the output's timeline, the root path read at the same content times
     root_out = root.sample(content_time)
     styled = decode_plain(model, on_output_frames(latents, grid, content_time), root_out, config.smooth_s)
+    # parts styled by another library: their own track, decoded on the same timeline, joint by joint
+    part_tracks = []
+    for joints, library in by_part:
+        track = style_track(content_latents, actions, library, grid, config, fps, columns)
+        part_latents, _ = mix_tracks(content_on_grid, strength, [track], [np.ones_like(grid)])
+        part = decode_plain(
+            model, on_output_frames(part_latents, grid, content_time), root_out, config.smooth_s
+        )
+        styled = styled.with_joints(part, joints)
+        part_tracks.append(track)
     _check_finite(styled, "decoding", content_name)
+    positions, content_frames = output_frames(
+        content_time, fps, content.fps, content.num_frames, config.timing
+    )
+    base = None  # the model's reading of the content on the output's timeline (residual decoding)
     if config.decode == "plain":
-        motion = _plain_output(styled, content, content_time, config, fps)
+        motion = _plain_output(styled, content, positions, config)
     else:
-        base_latents = on_output_frames(interpolate_rows(content_latents, grid), grid, content_time)
-        base = decode_plain(model, base_latents, root_out, config.smooth_s)
-        positions, content_frames = output_frames(
-            content_time, fps, content.fps, content.num_frames, config.timing
+        base = decode_plain(
+            model, on_output_frames(content_on_grid, grid, content_time), root_out, config.smooth_s
         )
         strength_out = config.strength_schedule.at(content_frames / content.fps)  # (N,)
         motion = compose_residual(
@@ -130,20 +163,24 @@ def transfer(
         # clean up: plant the feet as far as the style acts
         if config.cleanup:
             motion = blend_by_strength(motion, _clean_up(motion, config), strength_out)
+    # body parts that keep the content's action: kept ones throughout, the others where the style does another
+    keep = keep_weights(tracks, shares, content.skeleton, grid, content_time, positions, kept)  # (N, J)
+    if np.any(keep > 0):
+        content_at = frames_of(content, content_frames)
+        reference = content_at if base is None else frames_of(base, positions)
+        target = keep_target(content_at, frames_of(styled, positions), reference, keep, kept)
+        motion = blend_by_strength(motion, target, keep)
     _check_finite(motion, "foot clean-up" if config.cleanup else "decoding", content_name)
     record = explain(tracks, libraries, content_time, fps, config)
     record["content_reconstruction_cm"] = round(error_cm, 3)
     return TransferResult(motion, record)
 
 
-def _plain_output(
-    decoded: Motion, content: Motion, content_time: FloatArray, config: TransferConfig, fps: float
-) -> Motion:
+def _plain_output(decoded: Motion, content: Motion, positions: FloatArray, config: TransferConfig) -> Motion:
     """The report's output: the decoded clip (model rate) read at the output's frames on the content's
-    frame rate (the same frames as residual decoding; on the content's clock with `timing` content), on
-    the content's own skeleton (its offsets and End Sites, so the output drops into the content's rig),
+    frame rate (positions (N,), as residual decoding reads; on the content's clock with `timing` content),
+    on the content's own skeleton (its offsets and End Sites, so the output drops into the content's rig),
     cleaned up."""
-    positions, _ = output_frames(content_time, fps, content.fps, content.num_frames, config.timing)
     sampled = decoded.sample(positions)
     motion = Motion(content.skeleton, sampled.rotations, sampled.translations, content.fps)
     return _clean_up(motion, config) if config.cleanup else motion

@@ -35,6 +35,7 @@ class Job(NamedTuple):
     config: TransferConfig
     second: StyleLibrary | None
     second_weight: Schedule
+    part_styles: dict[str, StyleLibrary]  # body part names -> the library whose manner they take
     force: bool
     explain: str | None
     inputs: tuple[str, ...]  # what the command reads: never written
@@ -62,7 +63,7 @@ def _transfer(job: Job, content_spec: str, target: Path) -> tuple[bytes, dict[st
     motion, layout = read_clip(content_spec)
     result = transfer(
         motion, job.style, job.config, model=job.model, second_style=job.second,
-        second_weight=job.second_weight, content_name=content_spec,
+        second_weight=job.second_weight, part_styles=job.part_styles, content_name=content_spec,
     )  # fmt: skip
     log.info("transferred %s (%d frames, %.2f s; content %.2f s)", content_spec, result.motion.num_frames,
              result.motion.duration_s, motion.duration_s)  # fmt: skip

@@ -45,6 +45,11 @@ def add_transfer_command(commands: Any) -> None:
     )
     parser.add_argument("--at", type=float, help="content time (s) where the change to --then-style starts")
     parser.add_argument("--over", type=float, help="duration (s) of the change to --then-style (default 1)")
+    parser.add_argument(
+        "--style-part", action="append", metavar="PART=CLIP",
+        help="body parts (legs, spine, left-arm, right-arm, arms; comma-separated) that take the manner of "
+        "another style clip, folder or glob, on the --style clip's timing (repeatable)",
+    )  # fmt: skip
     parser.add_argument("--blend-style", action="append", help="a second style blended in at --blend")
     parser.add_argument("--blend", type=float, help="share of --blend-style, 0..1 (default 0.5)")
     parser.add_argument("--explain", help="write a JSON record of every output patch's source")
@@ -113,7 +118,8 @@ def _check_inputs_readable(specs: tuple[str, ...]) -> None:
 
 def _inputs(args: argparse.Namespace) -> tuple[str, ...]:
     """Every file the command reads: no output may replace one of them, --force or not."""
-    styles = [*args.style, *(args.then_style or []), *(args.blend_style or [])]
+    parts = [spec.partition("=")[2] for spec in args.style_part or []]
+    styles = [*args.style, *(args.then_style or []), *(args.blend_style or []), *parts]
     return (*args.content, *styles, *([args.model] if args.model else []))
 
 
@@ -126,6 +132,7 @@ def run_transfer(args: argparse.Namespace) -> int:
 
     config = config_from_args(TransferConfig, args)  # validated once: a bad value is a UsageError
     _check_style_options(args)
+    _style_parts(args)  # checked before any work
     contents, targets = _outputs(args)
     _check_inputs_readable(_inputs(args))
     if args.explain:
@@ -155,7 +162,10 @@ def run_transfer(args: argparse.Namespace) -> int:
         second = library(args.blend_style)
         second_weight = Schedule.constant(0.5 if args.blend is None else args.blend)
 
-    job = Job(style, model, config, second, second_weight, args.force, args.explain, _inputs(args))
+    part_styles = {names: library([spec]) for names, spec in _style_parts(args)}
+    job = Job(
+        style, model, config, second, second_weight, part_styles, args.force, args.explain, _inputs(args)
+    )
     if len(args.content) == 1:
         transfer_one(job, args.content[0], targets[0])
         return 0
@@ -164,6 +174,20 @@ def run_transfer(args: argparse.Namespace) -> int:
     if args.scheduler:
         return run_on_dask(job, contents, targets, args.scheduler)
     return run_local(job, contents, targets, args.jobs)
+
+
+def _style_parts(args: argparse.Namespace) -> list[tuple[str, str]]:
+    """(part names, style spec) of each --style-part PART=CLIP; a UsageError for a malformed one."""
+    from elastyle.core.parts import parse_parts
+
+    pairs = []
+    for spec in args.style_part or []:
+        names, _, clip = spec.partition("=")
+        if not names.strip() or not clip.strip():
+            raise UsageError(f"--style-part {spec!r}: give PART=CLIP, for example arms=proud_walk.bvh")
+        parse_parts(names, "--style-part")  # a ConfigError (a usage error) for an unknown part
+        pairs.append((names, clip))
+    return pairs
 
 
 def _check_style_options(args: argparse.Namespace) -> None:

@@ -70,12 +70,14 @@ def centimetres_per_unit(skeleton: Skeleton) -> float:
 
 @dataclass(frozen=True)
 class Limbs:
-    """Joint indices: toes (F,), ankles (F,), hips (F,), and hands (H,) (end joints of arm chains)."""
+    """Joint indices: toes (F,), ankles (F,), hips (F,), hands (H,) (end joints of arm chains) and the
+    arms' roots (H,) (the first sided joint of each arm: a clavicle or shoulder)."""
 
     toes: IntArray
     ankles: IntArray
     hips: IntArray
     hands: IntArray
+    arm_roots: IntArray
 
     @cached_property
     def feet(self) -> IntArray:
@@ -137,6 +139,7 @@ def _limbs_of(skeleton: Skeleton) -> Limbs:
     ankles = [int(skeleton.parents[t]) if skeleton.parents[t] != leg else t for t, leg in zip(toes, legs)]
     spine = [c for c in skeleton.children(pelvis) if partner[c] == c and c not in legs]
     hands: list[int] = []
+    roots: list[int] = []
     if spine:
         below_spine = set(_subtree_depths(skeleton, spine[0]))
         # arm roots: sided joints below the spine whose parent is a centre joint
@@ -151,7 +154,7 @@ def _limbs_of(skeleton: Skeleton) -> Limbs:
                 if roots:
                     break
         hands = [_deepest_descendant(skeleton, r) for r in roots]
-    arrays = [np.array(joints, dtype=np.int64) for joints in (toes, ankles, legs, hands)]
+    arrays = [np.array(joints, dtype=np.int64) for joints in (toes, ankles, legs, hands, roots)]
     for array in arrays:
         array.flags.writeable = False  # shared by every caller
     return Limbs(*arrays)

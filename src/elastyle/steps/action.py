@@ -20,10 +20,12 @@ import numpy as np
 
 from elastyle.core.body import find_limbs, heading_yaw, leg_length, pelvis_forward_local, yaw_matrices
 from elastyle.core.motion import Motion
+from elastyle.core.parts import body_parts
 from elastyle.core.rotations import lengths
+from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import frame_steps, smooth
 from elastyle.steps.contacts import GROUND_PERCENTILE, PERCENTILE_METHOD
-from elastyle.types import FloatArray
+from elastyle.types import FloatArray, IntArray
 
 SMOOTH_S = 0.1  # velocities are low-passed over about this long (sigma 0.4 of it), so noise does not count
 
@@ -50,3 +52,16 @@ def action_channels(motion: Motion) -> FloatArray:
         ground = np.percentile(heights, GROUND_PERCENTILE, axis=0, method=PERCENTILE_METHOD)
         channels.append((heights - ground) / leg)
     return smooth(np.concatenate(channels, axis=1), sigma)
+
+
+def part_channels(skeleton: Skeleton) -> dict[str, IntArray]:
+    """The columns of `action_channels` that say what each body part does: the legs' travel and feet,
+    each arm's hand (position and speed); the spine has none of its own."""
+    limbs = find_limbs(skeleton)
+    num_hands = len(limbs.hands)
+    columns = {"legs": [0, 1, 2, *range(3 + 4 * num_hands, 3 + 4 * num_hands + len(limbs.ankles))]}
+    for name, joints in body_parts(skeleton).items():
+        for h, hand in enumerate(limbs.hands.tolist()):
+            if hand in joints:
+                columns[name] = [3 + 3 * h, 4 + 3 * h, 5 + 3 * h, 3 + 3 * num_hands + h]
+    return {name: np.array(cols, dtype=np.int64) for name, cols in columns.items()}

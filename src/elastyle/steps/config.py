@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from elastyle.core.parts import parse_parts
 from elastyle.errors import ConfigError
 from elastyle.steps.schedule import Schedule
 from elastyle.types import IntArray
@@ -82,6 +83,17 @@ class TransferConfig:
         "alone colour the content's own latents (eased over 0.15 of similarity and a quarter patch); -1: never",
         low=-1.0, high=1.0,
     )  # fmt: skip
+    keep_action_above: float = option(
+        0.35,
+        "per body part: where the legs' travel and steps differ from the matched style windows' by more than "
+        "this (relative RMS of their action descriptors), the legs and arms keep the content's action and "
+        "pace, eased in over 0.15 above it (a walk given a run's or a wave's style still walks); 2: never",
+        low=0.0, high=2.0,
+    )  # fmt: skip
+    keep_part: str = option(
+        "",
+        "body parts performed as in the content (comma-separated: legs, spine, left-arm, right-arm, arms)",
+    )
     smooth_s: float = option(
         1 / 30, "Gaussian low-pass of the decoded motion, sigma in seconds (0: none; default one frame at 30 fps)",
         low=0.0, high=10.0,
@@ -111,6 +123,7 @@ class TransferConfig:
     def __post_init__(self) -> None:
         for spec in fields(self):
             _check(spec.name, getattr(self, spec.name), spec.metadata)
+        parse_parts(self.keep_part, "--keep-part")
         if isinstance(self.strength, str):
             Schedule.parse(self.strength, "strength")
         else:
@@ -125,6 +138,11 @@ class TransferConfig:
         if unknown:
             raise ConfigError(f"unknown transfer option {unknown[0]!r}; options: {', '.join(sorted(known))}")
         return replace(config, **options) if options else config
+
+    @property
+    def kept_parts(self) -> tuple[str, ...]:
+        """The parts `keep_part` names, groups expanded."""
+        return parse_parts(self.keep_part, "--keep-part")
 
     @property
     def strength_schedule(self) -> Schedule:

@@ -71,8 +71,8 @@ def compose_residual(
     styled, base: (T_out,) model-rate clips; positions (N,): their frames to read; content_frames (N,): the
     content's frames to read; strength (N,) in [0, 1]: how far E is low-passed.
     """
-    styled_at, base_at = _frames_of(styled, positions), _frames_of(base, positions)
-    content_at = _frames_of(content, content_frames)
+    styled_at, base_at = frames_of(styled, positions), frames_of(base, positions)
+    content_at = frames_of(content, content_frames)
     error_rotations = continuous_log(
         canonical_log(quat_multiply(to_quat(-base_at.rotations), to_quat(content_at.rotations)))
     )  # (N, J, 3)
@@ -92,7 +92,7 @@ def compose_residual(
     return Motion(content.skeleton, rotations, translations, content.fps)
 
 
-def _frames_of(motion: Motion, frames: FloatArray) -> Motion:
+def frames_of(motion: Motion, frames: FloatArray) -> Motion:
     """The clip at frames (N,): whole frames taken as they are (the common case: the model's frame rate),
     fractional ones by `Motion.sample`."""
     whole = np.rint(frames)
@@ -103,11 +103,13 @@ def _frames_of(motion: Motion, frames: FloatArray) -> Motion:
 
 
 def blend_by_strength(before: Motion, after: Motion, strength: FloatArray) -> Motion:
-    """Per frame, `before` at strength 0, `after` at 1, and between them (rotations by slerp) in between:
-    how a step that follows the style (the foot clean-up) fades out towards strength 0."""
+    """Per frame (strength (T,)) or per frame and joint ((T, J)), `before` at strength 0, `after` at 1, and
+    between them (rotations by slerp) in between: how a step that follows the style (the foot clean-up)
+    fades out towards strength 0, and how body parts keep the content's action."""
     if np.all(strength >= 1):
         return after
-    weight = np.clip(strength, 0.0, 1.0)[:, None, None]  # (T, 1, 1)
+    weight = np.clip(strength, 0.0, 1.0)
+    weight = (weight[:, None] if weight.ndim == 1 else weight)[:, :, None]  # (T, 1 or J, 1)
     change = canonical_log(quat_multiply(to_quat(-before.rotations), to_quat(after.rotations)))
     rotations = multiply(before.rotations, weight * change)
     rotations = np.where(weight >= 1, after.rotations, np.where(weight <= 0, before.rotations, rotations))

@@ -22,19 +22,28 @@ def explain(
     config: TransferConfig,
 ) -> dict[str, Any]:
     """Per output patch: its style clip (mirrored or not), start frame, stretch factor, similarity, times,
-    and how it was used (mode: swap, blend, or statistics where the fallback took over, with the
-    statistics' mean share); content_time (T_out,) is the content frame of each output frame."""
+    and how it was used (mode: swap; statistics where the fallback took over; content where the legs and
+    spine keep the content's action; blend between them), with per body part the action mismatch and the
+    share of the content kept; content_time (T_out,) is the content frame of each output frame."""
     styles = []
     notes: list[str] = []  # automatic adjustments, as printed
     for track, library in zip(tracks, libraries):
         rows = []
-        for patch in track.patches:
+        for index, patch in enumerate(track.patches):
             clip, frame = library.locate(patch.style_start)
             span = slice(
                 int(patch.content_start / GRID_STEP),
                 int((patch.content_start + patch.content_frames) / GRID_STEP),
             )
-            fallback = float(np.mean(track.fallback[span])) if len(track.fallback[span]) else 0.0
+            fallback = _mean(track.fallback[span])
+            content_share = _mean(track.keep["legs"][span]) if "legs" in track.keep else 0.0
+            parts = {
+                part: {
+                    "mismatch": round(float(mismatch[index]), 3),
+                    "content_share": round(_mean(track.keep[part][span]) if part in track.keep else 0.0, 3),
+                }
+                for part, mismatch in track.mismatch.items()
+            }
             start_out = float(np.searchsorted(content_time, patch.content_start)) / fps
             rows.append(
                 {
@@ -46,8 +55,9 @@ def explain(
                     "style_frames": track.patch_frames,
                     "stretch": round(patch.content_frames / track.patch_frames, 4),
                     "similarity": round(patch.similarity, 4),
-                    "mode": "swap" if fallback < 0.01 else "statistics" if fallback > 0.99 else "blend",
+                    "mode": _mode(fallback, content_share),
                     "statistics_share": round(fallback, 3),
+                    "parts": parts,
                 }
             )
         entry: dict[str, Any] = {"clips": sorted(set(library.names)), "patches": rows}
@@ -63,8 +73,24 @@ def explain(
         "stretch": config.stretch,
         "action_weight": config.action_weight,
         "fallback_below": config.fallback_below,
+        "keep_action_above": config.keep_action_above,
+        "keep_part": config.keep_part,
         "model_fps": fps,
         "output_frames": int(len(content_time)),
         "styles": styles,
         "notes": notes,
     }
+
+
+def _mean(values: FloatArray) -> float:
+    return float(np.mean(values)) if len(values) else 0.0
+
+
+def _mode(statistics_share: float, content_share: float) -> str:
+    """How a patch was used: swap, statistics (the fallback), content (the legs keep the content's
+    action) or blend where either is partial."""
+    if statistics_share > 0.99:
+        return "statistics"
+    if content_share > 0.99:
+        return "content"
+    return "swap" if max(statistics_share, content_share) < 0.01 else "blend"

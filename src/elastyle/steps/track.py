@@ -17,9 +17,9 @@ from elastyle.core.smoothing import smooth
 from elastyle.errors import ClipTooShortError
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.library import StyleLibrary, match_frames
-from elastyle.steps.search import Patch, search_fixed, search_sequential
+from elastyle.steps.search import Patch, sample_windows, search_fixed, search_sequential
 from elastyle.steps.whiten import LatentStats, adain
-from elastyle.types import FloatArray
+from elastyle.types import FloatArray, IntArray
 
 log = logging.getLogger(__name__)
 MIN_PATCH_FRAMES = 4
@@ -28,16 +28,24 @@ FALLBACK_RAMP = (
 )
 
 
+KEEP_RAMP = 0.15  # a part's share of the content's action rises from 0 to 1 over this much mismatch
+MISMATCH_FLOOR = 0.3  # legs (per second): what a part's mismatch is relative to, at the least
+
+
 class StyleTrack(NamedTuple):
     """latents (G, Z) coloured, on the content-time grid; log_rate (G,); the matched patches (empty for
     the statistics-only methods) and their length L in frames; fallback (G,), 0 to 1, the share of the
-    style's statistics alone where no style window matched well (1 for the statistics-only methods)."""
+    style's statistics alone where no style window matched well (1 for the statistics-only methods);
+    mismatch: per body part, each patch's action mismatch (P,) (`part_mismatch`); keep: per body part
+    (G,), 0 to 1, the share of the content's own action where the matched windows do another."""
 
     latents: FloatArray
     log_rate: FloatArray
     patches: list[Patch]
     patch_frames: int
     fallback: FloatArray
+    mismatch: dict[str, FloatArray]
+    keep: dict[str, FloatArray]
 
 
 def requested_patch_frames(config: TransferConfig, fps: float) -> int:
@@ -60,17 +68,19 @@ def style_track(
     grid: FloatArray,
     config: TransferConfig,
     fps: float,
+    part_columns: dict[str, IntArray] | None = None,
 ) -> StyleTrack:
     """The track of one library for content latents (T, Z) and action descriptors (T, A) on grid times
-    (G,) in content frames."""
+    (G,) in content frames; part_columns: the action columns of each body part (`steps.action`)."""
     content_stats = LatentStats.of([content_latents])
-    if config.method == "wct":
-        floor = config.whiten_floor
-        coloured = library.stats.colour(content_stats.whiten(content_latents, floor), floor)
-        return StyleTrack(interpolate_rows(coloured, grid), np.zeros_like(grid), [], 0, np.ones_like(grid))
-    if config.method == "adain":
-        styled = adain(content_latents, [content_latents], [library.latents])
-        return StyleTrack(interpolate_rows(styled, grid), np.zeros_like(grid), [], 0, np.ones_like(grid))
+    if config.method in ("wct", "adain"):
+        if config.method == "wct":
+            floor = config.whiten_floor
+            styled = library.stats.colour(content_stats.whiten(content_latents, floor), floor)
+        else:
+            styled = adain(content_latents, [content_latents], [library.latents])
+        still = np.zeros_like(grid)
+        return StyleTrack(interpolate_rows(styled, grid), still, [], 0, np.ones_like(grid), {}, {})
     wanted = requested_patch_frames(config, fps)
     patch_frames = min(wanted, library.longest_clip)
     if patch_frames < MIN_PATCH_FRAMES:
@@ -102,9 +112,53 @@ def style_track(
         own = interpolate_rows(white_content, grid)  # the content's own whitened latents (G, Z)
         white = (1 - fallback)[:, None] * white + fallback[:, None] * own
         log_rate = (1 - fallback) * log_rate  # the content's own pace where it keeps its action
+    # per body part: where the legs do another action than the matched windows (a walk matched against a
+    # run or a wave), the legs and the spine keep the content's action and the output its pace
+    mismatch = {
+        part: part_mismatch(content_actions, library.actions, patches, patch_frames, columns)
+        for part, columns in (part_columns or {}).items()
+    }
+    keep: dict[str, FloatArray] = {}
+    if "legs" in mismatch:
+        shifted_mismatch = part_mismatch(
+            content_actions, library.actions, shifted, patch_frames, (part_columns or {})["legs"]
+        )
+        legs = (weight_a * _patch_values(grid, patches, mismatch["legs"])
+                + weight_b * _patch_values(grid, shifted, shifted_mismatch)) / total  # fmt: skip
+        share = keep_share(legs, config.keep_action_above, 0.25 * patch_frames / step)
+        keep = {"legs": share, "spine": share}
+        log_rate = (1 - share) * log_rate
     # colour with the style's statistics
     coloured = library.stats.colour(white, config.whiten_floor)
-    return StyleTrack(coloured, log_rate, patches, patch_frames, fallback)
+    return StyleTrack(coloured, log_rate, patches, patch_frames, fallback, mismatch, keep)
+
+
+def part_mismatch(
+    content_actions: FloatArray,
+    library_actions: FloatArray,
+    patches: list[Patch],
+    patch_frames: int,
+    columns: IntArray,
+) -> FloatArray:
+    """(P,) how differently a body part acts in each patch's content span (stretched to L frames) and its
+    style window: the RMS difference of the part's action descriptors (T, A) columns (K,), relative to
+    their RMS in both (at least `MISMATCH_FLOOR`). 0: the same action; 1: as different as they are large."""
+    if not patches or not len(columns):
+        return np.zeros(len(patches))
+    starts, frames = np.array([(p.content_start, p.content_frames) for p in patches]).T
+    content = sample_windows(content_actions[:, columns], starts, frames, patch_frames)  # (P, L, K)
+    rows = np.array([p.style_start for p in patches])[:, None] + np.arange(patch_frames)  # (P, L)
+    style = library_actions[np.minimum(rows, len(library_actions) - 1)][:, :, columns]  # (P, L, K)
+    difference = np.sqrt(np.mean((content - style) ** 2, axis=(1, 2)))
+    size = np.sqrt(np.mean(content**2, axis=(1, 2)) + np.mean(style**2, axis=(1, 2)))
+    return difference / (size + MISMATCH_FLOOR)
+
+
+def keep_share(mismatch: FloatArray, above: float, ease_steps: float) -> FloatArray:
+    """(G,) 0 where a part's mismatch (G,) is at most `above`, rising smoothly to 1 at `KEEP_RAMP` over it,
+    eased in and out in time (Gaussian, sigma `ease_steps` grid steps)."""
+    x = np.clip((mismatch - above) / KEEP_RAMP, 0.0, 1.0)
+    return np.clip(smooth(x * x * (3 - 2 * x), ease_steps), 0.0, 1.0)
 
 
 def fallback_share(similarity: FloatArray, below: float, ease_steps: float) -> FloatArray:
@@ -114,6 +168,12 @@ def fallback_share(similarity: FloatArray, below: float, ease_steps: float) -> F
         return np.zeros_like(similarity)
     x = np.clip((below - similarity) / FALLBACK_RAMP, 0.0, 1.0)
     return np.clip(smooth(x * x * (3 - 2 * x), ease_steps), 0.0, 1.0)
+
+
+def _patch_values(grid: FloatArray, patches: list[Patch], values: FloatArray) -> FloatArray:
+    """(G,) each patch's value (P,) at the grid times it covers (0 where none does)."""
+    with_values = [p._replace(similarity=float(v)) for p, v in zip(patches, values)]
+    return _patch_sample(grid, with_values, 1)[3]
 
 
 def _patch_sample(

@@ -1,0 +1,88 @@
+"""Body parts: the skeleton split into legs (with the root), spine (with the head) and each arm.
+
+Found from the limbs `core.body` finds on any naming scheme (names first, mirror-image chains when names
+say nothing), so per-part options work on any skeleton whose arms and legs can be found. Every joint
+belongs to exactly one part:
+
+    legs        the root, the pelvis and every joint that is neither in the spine's nor an arm's subtree
+    spine       the spine's subtree without the arms: spine, chest, neck, head
+    left-arm    the subtree of the left arm's root (clavicle or shoulder) down to the fingers
+    right-arm   the same on the right
+
+`arms` names both arms at once.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from elastyle.core.body import find_limbs
+from elastyle.core.skeleton import Skeleton
+from elastyle.errors import ConfigError
+from elastyle.types import FloatArray, IntArray
+
+PARTS = ("legs", "spine", "left-arm", "right-arm")
+GROUPS = {"arms": ("left-arm", "right-arm")}
+PART_NAMES = (*PARTS, *GROUPS)
+
+
+def subtree(skeleton: Skeleton, joint: int) -> list[int]:
+    """`joint` and every joint below it (parents come before their children in a skeleton)."""
+    inside = {joint}
+    for j in range(joint + 1, skeleton.num_joints):
+        if int(skeleton.parents[j]) in inside:
+            inside.add(j)
+    return sorted(inside)
+
+
+def body_parts(skeleton: Skeleton) -> dict[str, IntArray]:
+    """The joints (sorted) of each part the skeleton has; parts it lacks (no arms found) are left out."""
+    limbs = find_limbs(skeleton)
+    part = np.full(skeleton.num_joints, "legs", dtype=object)
+    centre_children = [c for c in skeleton.children(skeleton.pelvis) if c not in set(limbs.hips.tolist())]
+    if len(limbs.hips) and centre_children:
+        part[subtree(skeleton, centre_children[0])] = "spine"
+    rest = skeleton.rest_positions()
+    for root in limbs.arm_roots.tolist():
+        side = int(skeleton.sides()[root])
+        if side == 0:  # unnamed: a body faces +Z with +Y up, so its left is at +X
+            side = 1 if rest[root, 0] > rest[skeleton.pelvis, 0] else -1
+        part[subtree(skeleton, root)] = "left-arm" if side > 0 else "right-arm"
+    found = {name: np.flatnonzero(part == name) for name in PARTS}
+    return {name: joints for name, joints in found.items() if len(joints)}
+
+
+def parse_parts(text: str, flag: str) -> tuple[str, ...]:
+    """Part names from a comma-separated list (`legs,left-arm`), groups expanded; `ConfigError` naming
+    `flag` for an unknown name."""
+    names: list[str] = []
+    for word in (w.strip() for w in text.split(",")):
+        if not word:
+            continue
+        if word not in PART_NAMES:
+            raise ConfigError(f"{flag}: unknown body part {word!r}; choose from {', '.join(PART_NAMES)}")
+        names += [n for n in GROUPS.get(word, (word,)) if n not in names]
+    return tuple(names)
+
+
+def part_joints(skeleton: Skeleton, names: tuple[str, ...], clip: str) -> IntArray:
+    """The joints (sorted) of the named parts; `ConfigError` naming the clip when its skeleton lacks one."""
+    parts = body_parts(skeleton)
+    missing = [n for n in names if n not in parts]
+    if missing:
+        raise ConfigError(
+            f"{clip}: no {missing[0]} found on this skeleton (parts found: {', '.join(parts) or 'none'})"
+        )
+    joints = [parts[n] for n in names]
+    return np.unique(np.concatenate(joints)) if joints else np.zeros(0, dtype=np.int64)
+
+
+def joint_weights(
+    num_joints: int, parts: list[tuple[IntArray, FloatArray]], default: FloatArray
+) -> FloatArray:
+    """(T, J) per-frame, per-joint weights: `default` (T,) everywhere, each part's joints (K,) taking its
+    own weights (T,) (later parts win where parts share joints)."""
+    weights = np.repeat(default[:, None], num_joints, axis=1)
+    for joints, values in parts:
+        weights[:, joints] = values[:, None]
+    return weights

@@ -1,0 +1,112 @@
+"""Per body part, on real held-out clips: parts kept as the content performs them, parts styled by another
+clip, and the legs and spine that keep the content's action where the style clip performs another."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from elastyle import ConfigError, Motion, read_bvh, transfer
+from elastyle.core.parts import body_parts
+from elastyle.eval.metrics import cadence_steps_s
+from elastyle.io.dataset import ClipRef
+from elastyle.model.file import load_model
+from tests.conftest import clip_named
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def model():  # type: ignore[no-untyped-def]
+    return load_model()
+
+
+@pytest.fixture(scope="module")
+def clips(dataset_clips: list[ClipRef]) -> dict[str, Motion]:
+    names = ("walk_normal_005", "walk_masculine_010", "run_elderly_025", "run_feminine_015")
+    return {name: clip_named(dataset_clips, f"dataset-2_{name}").read()[0] for name in names}
+
+
+def _speed_legs_s(motion: Motion) -> float:
+    """The pelvis's mean horizontal speed in cm/s."""
+    pelvis = motion.positions()[:, motion.skeleton.pelvis][:, [0, 2]]
+    return float(np.mean(np.linalg.norm(np.diff(pelvis, axis=0), axis=-1)) * motion.fps)
+
+
+def test_a_kept_part_is_the_content_itself(model, clips: dict[str, Motion]) -> None:  # type: ignore[no-untyped-def]
+    walk, proud = clips["walk_normal_005"], clips["walk_masculine_010"]
+    arm = body_parts(walk.skeleton)["left-arm"]
+    out = transfer(walk, proud, model=model, keep_part="left-arm", timing="content").motion
+    np.testing.assert_array_equal(out.rotations[:, arm], walk.rotations[:, arm])
+    styled = transfer(walk, proud, model=model, timing="content").motion
+    assert np.abs(styled.rotations[:, arm] - walk.rotations[:, arm]).max() > 0.05  # the style does act there
+    # on the style's clock the kept part is the content read at each output frame's content time
+    retimed = transfer(walk, proud, model=model, keep_part="arms,legs")
+    legs = body_parts(walk.skeleton)["legs"]
+    assert retimed.motion.num_frames != walk.num_frames
+    assert np.abs(retimed.motion.rotations[:, legs] - walk.rotations[0, legs]).max() > 0.1
+
+
+def test_an_unknown_part_is_a_clear_error(model, clips: dict[str, Motion]) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(ConfigError, match="--keep-part: unknown body part 'tail'"):
+        transfer(clips["walk_normal_005"], clips["walk_masculine_010"], model=model, keep_part="tail")
+
+
+def test_the_arms_take_another_clips_manner_and_the_rest_does_not_change(
+    model, clips: dict[str, Motion]
+) -> None:  # type: ignore[no-untyped-def]
+    walk, proud, elderly = clips["walk_normal_005"], clips["walk_masculine_010"], clips["run_elderly_025"]
+    parts = body_parts(walk.skeleton)
+    alone = transfer(walk, proud, model=model).motion
+    mixed = transfer(walk, proud, model=model, part_styles={"arms": elderly}).motion
+    assert mixed.num_frames == alone.num_frames  # one clock: the main style's
+    arms = np.concatenate([parts["left-arm"], parts["right-arm"]])
+    rest = np.setdiff1d(np.arange(walk.skeleton.num_joints), arms)
+    np.testing.assert_allclose(mixed.rotations[:, rest], alone.rotations[:, rest], atol=1e-9)
+    assert np.abs(mixed.rotations[:, arms] - alone.rotations[:, arms]).max() > 0.1
+
+
+def test_a_walk_given_a_runs_style_still_walks(model, clips: dict[str, Motion]) -> None:  # type: ignore[no-untyped-def]
+    """The run's windows run: the legs keep the walk (its pace and stride), the swap still acts on the arms."""
+    walk, run = clips["walk_normal_005"], clips["run_feminine_015"]
+    result = transfer(walk, run, model=model)
+    out = result.motion
+    assert cadence_steps_s(out) == pytest.approx(cadence_steps_s(walk), rel=0.1)
+    assert _speed_legs_s(out) == pytest.approx(_speed_legs_s(walk), rel=0.1)
+    assert abs(cadence_steps_s(run) - cadence_steps_s(walk)) > 0.3  # the run steps at another rate
+    patches = result.explain["styles"][0]["patches"]
+    assert all(p["parts"]["legs"]["content_share"] > 0.9 for p in patches), patches
+    assert all(p["mode"] == "content" for p in patches)
+    before = transfer(walk, run, model=model, keep_action_above=2.0)  # never: the report's swap
+    assert cadence_steps_s(before.motion) > cadence_steps_s(walk) + 0.2  # it would run at the run's rate
+    arm = body_parts(walk.skeleton)["right-arm"]
+    assert np.abs(out.rotations[:, arm] - walk.rotations[: out.num_frames, arm]).max() > 0.1
+
+
+def test_a_walk_given_a_walks_style_swaps_everywhere(model, clips: dict[str, Motion]) -> None:  # type: ignore[no-untyped-def]
+    result = transfer(clips["walk_normal_005"], clips["walk_masculine_010"], model=model)
+    patches = result.explain["styles"][0]["patches"]
+    assert {p["mode"] for p in patches} == {"swap"}
+    assert max(p["parts"]["legs"]["mismatch"] for p in patches) < 0.35
+
+
+def test_keep_part_and_style_part_on_the_command_line(tmp_path: Path, dataset_clips: list[ClipRef]) -> None:
+    walk, proud, run = (
+        clip_named(dataset_clips, f"dataset-2_{n}").name
+        for n in ("walk_normal_005", "walk_masculine_010", "run_elderly_025")
+    )
+    out = tmp_path / "out.bvh"
+    command = [sys.executable, "-m", "elastyle.cli", "transfer", walk, "--style", proud, "-o", str(out),
+               "--keep-part", "left-arm", "--style-part", f"right-arm={run}", "--timing", "content"]  # fmt: skip
+    done = subprocess.run(command, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    content = clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0]
+    arm = body_parts(content.skeleton)["left-arm"]
+    np.testing.assert_allclose(read_bvh(out)[0].rotations[:, arm], content.rotations[:, arm], atol=1e-4)
+    wrong = subprocess.run([*command[:-4], "--style-part", "tail=" + run], capture_output=True, text=True)
+    assert wrong.returncode == 2 and "unknown body part 'tail'" in wrong.stderr
+    assert len(wrong.stderr.strip().splitlines()) == 1
