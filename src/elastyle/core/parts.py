@@ -9,7 +9,9 @@ belongs to exactly one part:
     left-arm    the subtree of the left arm's root (clavicle or shoulder) down to the fingers
     right-arm   the same on the right
 
-`arms` names both arms at once.
+`arms` names both arms at once. On a skeleton with no side names, which arm is the left one comes from
+the rest pose (up from the pelvis to the spine, forward from ankle to toe); a rest pose that is not upright
+may swap them.
 """
 
 from __future__ import annotations
@@ -45,11 +47,24 @@ def body_parts(skeleton: Skeleton) -> dict[str, IntArray]:
     rest = skeleton.rest_positions()
     for root in limbs.arm_roots.tolist():
         side = int(skeleton.sides()[root])
-        if side == 0:  # unnamed: a body faces +Z with +Y up, so its left is at +X
-            side = 1 if rest[root, 0] > rest[skeleton.pelvis, 0] else -1
+        if side == 0 and centre_children and len(limbs.toes):  # unnamed: from the rest pose's geometry
+            side = (
+                1
+                if (rest[root] - rest[skeleton.pelvis]) @ _left_axis(skeleton, centre_children[0]) > 0
+                else -1
+            )
         part[subtree(skeleton, root)] = "left-arm" if side > 0 else "right-arm"
     found = {name: np.flatnonzero(part == name) for name in PARTS}
     return {name: joints for name, joints in found.items() if len(joints)}
+
+
+def _left_axis(skeleton: Skeleton, spine: int) -> FloatArray:
+    """(3,) the body's left in the rest pose: up (pelvis to spine) x forward (the feet point forward, ankle
+    to toe); a body facing +Z with +Y up has its left at +X."""
+    limbs, rest = find_limbs(skeleton), skeleton.rest_positions()
+    up = rest[spine] - rest[skeleton.pelvis]
+    forward = np.mean(rest[limbs.toes] - rest[limbs.ankles], axis=0)
+    return np.cross(up, forward)
 
 
 def parse_parts(text: str, flag: str) -> tuple[str, ...]:

@@ -1,8 +1,9 @@
 """`elastyle eval --benchmark`: the project's quality report over fixed held-out transfer pairs.
 
-Pairs come from `elastyle.eval.benchmark.benchmark_pairs` (documented there). Every method is scored
-with the figures of one transfer plus style and content recognition by ridge classifiers trained on
-the dataset's training takes (take % 5 != 0) and tested on its held-out takes.
+Pairs come from `elastyle.eval.benchmark.benchmark_pairs` (walk, gesture and cross sets, documented
+there). Every method is scored per set with the figures of one transfer plus style and content
+recognition by ridge classifiers trained on the dataset's training takes (take % 5 != 0) of every content
+type and tested on its held-out takes.
 """
 
 from __future__ import annotations
@@ -61,41 +62,42 @@ def _label(clip: ClipRef) -> DatasetLabel:
 
 
 def train_classifiers(data: str, model: StyleModel, per_class: int = 12) -> Classifiers:
-    """Style classifier on walks (7 styles), content classifier on every content (10), both held-out tested."""
+    """Style (7) and content (10) classifiers on every content type and style, both held-out tested."""
     groups: dict[tuple[str, str, bool], list[tuple[ClipRef, DatasetLabel]]] = {}
     for clip, label in labelled_clips(find_clips([data])):
         groups.setdefault((label.content, label.style, is_held_out(clip)), []).append((clip, label))
     chosen = [item for group in groups.values() for item in group[:per_class]]
     descriptors = {c.name: describe(c.read()[0].resample(model.fps), model.features) for c, _ in chosen}
 
-    def split(held_out: bool, walks_only: bool) -> tuple[np.ndarray, list[str], list[str]]:
+    def split(held_out: bool) -> tuple[np.ndarray, list[str], list[str]]:
         rows = [(c, label) for c, label in chosen if is_held_out(c) == held_out]
-        if walks_only:
-            rows = [(c, label) for c, label in rows if label.content == "walk"]
         x = np.array([descriptors[c.name] for c, _ in rows])
         return x, [label.style for _, label in rows], [label.content for _, label in rows]
 
-    x_walk, styles, _ = split(False, True)
-    x_all, _, contents = split(False, False)
-    style = RidgeClassifier.fit(x_walk, styles)
-    content = RidgeClassifier.fit(x_all, contents)
-    x_walk_test, styles_test, _ = split(True, True)
-    x_all_test, _, contents_test = split(True, False)
+    x_train, styles, contents = split(False)
+    style, content = RidgeClassifier.fit(x_train, styles), RidgeClassifier.fit(x_train, contents)
+    x_test, styles_test, contents_test = split(True)
     return Classifiers(
-        style, content, style.accuracy(x_walk_test, styles_test), content.accuracy(x_all_test, contents_test),
+        style, content, style.accuracy(x_test, styles_test), content.accuracy(x_test, contents_test),
         model.features, model.fps,
     )  # fmt: skip
 
 
 def run_benchmark(data: str, model: StyleModel, max_pairs: int = 24) -> dict[str, Any]:
-    pairs = benchmark_pairs(data, max_pairs)
+    """Every method of `VARIANTS` on every set's pairs (at most `max_pairs` each)."""
+    sets = benchmark_pairs(data, max_pairs)
     classifiers = train_classifiers(data, model)
     rows = []
     for name, config in VARIANTS.items():
-        log.info("benchmark: %s", name)
-        rows.append({"method": name, **score_pairs(pairs, model, config, classifiers)})
+        for set_name, pairs in sets.items():
+            log.info("benchmark: %s, %s", name, set_name)
+            scores = score_pairs(pairs, model, config, classifiers) if pairs else {}
+            rows.append({"method": name, "set": set_name, "pairs": len(pairs), **scores})
     return {
-        "pairs": [{"content": p.content.stem, "style": p.style.stem} for p in pairs],
+        "pairs": {
+            name: [{"content": p.content.stem, "style": p.style.stem} for p in pairs]
+            for name, pairs in sets.items()
+        },
         "classifier_held_out_accuracy": {
             "style": classifiers.style_accuracy,
             "content": classifiers.content_accuracy,
@@ -106,17 +108,23 @@ def run_benchmark(data: str, model: StyleModel, max_pairs: int = 24) -> dict[str
 
 def markdown_table(report: dict[str, Any]) -> str:
     accuracy = report["classifier_held_out_accuracy"]
+    counts = ", ".join(f"{name} {len(pairs)}" for name, pairs in report["pairs"].items())
     lines = [
-        f"{len(report['pairs'])} held-out pairs (neutral walk -> other style, cadence gap >= 0.15 steps/s). "
-        f"Classifiers' own held-out accuracy: style {accuracy['style']:.2f}, content {accuracy['content']:.2f}.",
+        f"Held-out pairs per set: {counts} (walk: neutral walk -> a walk in another style, cadence gap >= "
+        "0.15 steps/s; gesture: a neutral wave or raise-up -> the same gesture in another style; cross: "
+        "content and style of different content types). Timing error where both inputs step and their "
+        f"cadences differ by >= 0.15 steps/s. Classifiers' own held-out accuracy: style {accuracy['style']:.2f}, "
+        f"content {accuracy['content']:.2f}.",
         "",
-        "| method | timing error (median) | foot skating cm/s (floor) | (own contacts) | jitter vs content "
+        "| method | set | timing error (median) | foot skating cm/s (floor) | (own contacts) | jitter vs content "
         "| bone length error cm | style recognised | content recognised |",
-        "|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for row in report["rows"]:
+        if not row["pairs"]:
+            continue
         lines.append(
-            f"| {row['method']} | {row['timing_error_median']:.2f} | {row['skating_cm_s']:.1f} | "
+            f"| {row['method']} | {row['set']} | {row['timing_error_median']:.2f} | {row['skating_cm_s']:.1f} | "
             f"{row['skating_own_contacts_cm_s']:.1f} | "
             f"{row['jitter_vs_content']:.2f} | {row['bone_length_error_cm']:.4f} | {row['style_accuracy']:.2f} | "
             f"{row['content_accuracy']:.2f} |"
