@@ -44,15 +44,12 @@ def body_parts(skeleton: Skeleton) -> dict[str, IntArray]:
     centre_children = [c for c in skeleton.children(skeleton.pelvis) if c not in set(limbs.hips.tolist())]
     if len(limbs.hips) and centre_children:
         part[subtree(skeleton, centre_children[0])] = "spine"
-    rest = skeleton.rest_positions()
-    for root in limbs.arm_roots.tolist():
-        side = int(skeleton.sides()[root])
-        if side == 0 and centre_children and len(limbs.toes):  # unnamed: from the rest pose's geometry
-            side = (
-                1
-                if (rest[root] - rest[skeleton.pelvis]) @ _left_axis(skeleton, centre_children[0]) > 0
-                else -1
-            )
+    roots = limbs.arm_roots.tolist()
+    sides = [int(skeleton.sides()[root]) for root in roots]
+    if len(roots) == 2 and 0 in sides and centre_children and len(limbs.toes):  # unnamed: the rest pose
+        across = skeleton.rest_positions()[roots] @ _left_axis(skeleton, centre_children[0])
+        sides = [1, -1] if across[0] > across[1] else [-1, 1]
+    for root, side in zip(roots, sides):
         part[subtree(skeleton, root)] = "left-arm" if side > 0 else "right-arm"
     found = {name: np.flatnonzero(part == name) for name in PARTS}
     return {name: joints for name, joints in found.items() if len(joints)}
