@@ -87,19 +87,31 @@ def _lateral_difference(motion: Motion, positions: FloatArray, left: int, right:
     return np.sum(delta * forward, axis=1)
 
 
-def _alternation_hz(motion: Motion, positions: FloatArray | None, limb: str) -> float:
-    """Dominant frequency (Hz) of one of a pair of limbs ('ankles' or 'hands') leading the other."""
+MIN_STEP_SWING_CM = (
+    4.0  # feet whose lead over each other swings less than this (5th to 95th percentile) do not step
+)
+
+
+def _alternation_hz(
+    motion: Motion, positions: FloatArray | None, limb: str, min_swing_cm: float = 0.0
+) -> float:
+    """Dominant frequency (Hz) of one of a pair of limbs ('ankles' or 'hands') leading the other; NaN
+    where the lead swings less than `min_swing_cm`."""
     positions = motion.positions() if positions is None else positions
     pair = getattr(find_limbs(motion.skeleton), limb)
     if len(pair) < 2:
         return float("nan")
     lead = _lateral_difference(motion, positions, int(pair[0]), int(pair[1]))
+    swing = float(np.subtract(*np.percentile(lead, [95, 5]))) * centimetres_per_unit(motion.skeleton)
+    if swing < min_swing_cm:
+        return float("nan")
     return _dominant_frequency_hz(lead, motion.fps, 0.25, 2.0)
 
 
 def cadence_steps_s(motion: Motion, positions: FloatArray | None = None) -> float:
-    """Steps per second: twice the dominant frequency of one foot's lead over the other."""
-    return 2.0 * _alternation_hz(motion, positions, "ankles")
+    """Steps per second: twice the dominant frequency of one foot's lead over the other; NaN for a clip
+    that does not step (the lead swings less than `MIN_STEP_SWING_CM`: standing gestures)."""
+    return 2.0 * _alternation_hz(motion, positions, "ankles", MIN_STEP_SWING_CM)
 
 
 def arm_swing_hz(motion: Motion, positions: FloatArray | None = None) -> float:

@@ -27,6 +27,7 @@ log = logging.getLogger(__name__)
 VARIANTS: dict[str, TransferConfig] = {
     "elastic (sequential)": TransferConfig(),
     "elastic, raw (no foot clean-up)": TransferConfig(cleanup=False),
+    "elastic, swap everywhere (--keep-action-above 2)": TransferConfig(keep_action_above=2.0),
     "elastic, --timing content": TransferConfig(timing="content"),
     "elastic, fixed placement (report literal)": TransferConfig(placement="fixed"),
     "rigid": TransferConfig(method="rigid"),
@@ -124,9 +125,14 @@ def markdown_table(report: dict[str, Any]) -> str:
         if not row["pairs"]:
             continue
         lines.append(
-            f"| {row['method']} | {row['set']} | {row['timing_error_median']:.2f} | {row['skating_cm_s']:.1f} | "
+            f"| {row['method']} | {row['set']} | {_figure(row['timing_error_median'])} | {row['skating_cm_s']:.1f} | "
             f"{row['skating_own_contacts_cm_s']:.1f} | "
             f"{row['jitter_vs_content']:.2f} | {row['bone_length_error_cm']:.4f} | {row['style_accuracy']:.2f} | "
             f"{row['content_accuracy']:.2f} |"
         )
     return "\n".join(lines) + "\n"
+
+
+def _figure(value: float) -> str:
+    """A median as the table prints it: '-' where it is not defined (no pair steps)."""
+    return "-" if not np.isfinite(value) else f"{value:.2f}"
