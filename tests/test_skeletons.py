@@ -4,6 +4,7 @@ and the same cadence; a skeleton without legs says so instead of measuring nothi
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -246,3 +247,30 @@ def test_the_same_pair_skates_alike_at_30_and_60_fps(dataset_clips: list[ClipRef
         # measured at 30 fps, as an independent benchmark would (the floor measure itself depends on the rate)
         at_60 = floor_skating_cm_s(transfer(content.resample(60), style).motion.resample(30))
         assert at_60 == pytest.approx(at_30, rel=0.2), stem
+
+
+@pytest.mark.slow
+def test_units_stated_on_the_command_line_override_the_guess(tmp_path: Path, walk: Motion) -> None:
+    """A small character written in centimetres (its rest pose 60 units tall) looks like inches to the
+    guess; --units cm says what it is."""
+    from elastyle.core.body import centimetres_per_unit, in_units
+    from elastyle.eval.metrics import floor_skating_cm_s
+
+    small = Motion(
+        Skeleton(walk.skeleton.names, walk.skeleton.parents, walk.skeleton.offsets * 0.6, walk.skeleton.end_sites),
+        walk.rotations, walk.translations * 0.6, walk.fps,
+    )  # fmt: skip
+    assert centimetres_per_unit(small.skeleton) == 2.54  # the guess: inches
+    assert centimetres_per_unit(in_units(small, "cm").skeleton) == 1.0
+    path = tmp_path / "small.bvh"
+    write_bvh(path, small)
+    figures = {}
+    for units in ([], ["--units", "cm"]):
+        done = _cli("eval", str(path), "--content", str(path), "--style", str(path), "--json", *units)
+        assert done.returncode == 0, done.stderr
+        figures[bool(units)] = json.loads(done.stdout)["skating_content_cm_s"]
+    stated = floor_skating_cm_s(in_units(read_bvh(path)[0], "cm"))
+    assert figures[True] == pytest.approx(stated)
+    assert figures[False] != pytest.approx(stated)
+    wrong = _cli("eval", str(path), "--content", str(path), "--style", str(path), "--units", "furlong")
+    assert wrong.returncode == 2 and "--units" in wrong.stderr

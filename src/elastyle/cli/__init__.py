@@ -12,6 +12,7 @@ import os
 import sys
 from collections.abc import Sequence
 
+from elastyle.cli.options import add_units_flag
 from elastyle.errors import ElastyleError, UsageError
 
 log = logging.getLogger("elastyle")
@@ -38,6 +39,7 @@ def _command_info(args: argparse.Namespace) -> int:
 
 
 def _command_convert(args: argparse.Namespace) -> int:
+    from elastyle.core.body import in_units
     from elastyle.core.mirror import mirror
     from elastyle.io.bvh_read import MAX_FRAME_TIME_S, MIN_FRAME_TIME_S
     from elastyle.io.clip_write import check_output_format, write_clip
@@ -51,6 +53,7 @@ def _command_convert(args: argparse.Namespace) -> int:
     check_output_format(args.output)
     check_output_path(args.output, force=args.force, inputs=(args.input,))
     motion, layout = read_clip(args.input)
+    motion = in_units(motion, args.units)
     if args.fps is not None:
         motion = motion.resample(args.fps)
         layout = type(layout)(layout.channels, 1.0 / args.fps)
@@ -78,6 +81,7 @@ def build_parser() -> argparse.ArgumentParser:
     convert.add_argument("--fps", type=float, help="resample to this frame rate")
     convert.add_argument("--mirror", action="store_true", help="swap left and right")
     convert.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    add_units_flag(convert)
     convert.set_defaults(run=_command_convert)
 
     from elastyle.cli.train import add_train_commands

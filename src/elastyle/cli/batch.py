@@ -36,6 +36,7 @@ class Job(NamedTuple):
     second: StyleLibrary | None
     second_weight: Schedule
     part_styles: dict[str, StyleLibrary]  # body part names -> the library whose manner they take
+    units: str | None  # the content clips' length unit as stated (`core.body.UNITS`), None: guessed
     force: bool
     explain: str | None
     inputs: tuple[str, ...]  # what the command reads: never written
@@ -56,11 +57,13 @@ def transfer_one(job: Job, content_spec: str, target: Path) -> None:
 
 def _transfer(job: Job, content_spec: str, target: Path) -> tuple[bytes, dict[str, Any]]:
     """One content clip read and transferred: the bytes of its output file and the explain record."""
+    from elastyle.core.body import in_units
     from elastyle.io.clip_write import clip_bytes
     from elastyle.io.dataset import read_clip
     from elastyle.pipeline import transfer
 
     motion, layout = read_clip(content_spec)
+    motion = in_units(motion, job.units)
     result = transfer(
         motion, job.style, job.config, model=job.model, second_style=job.second,
         second_weight=job.second_weight, part_styles=job.part_styles, content_name=content_spec,

@@ -8,6 +8,7 @@ import logging
 from pathlib import Path
 from typing import Any
 
+from elastyle.cli.options import add_units_flag
 from elastyle.errors import DatasetError, ElastyleError, UsageError
 
 log = logging.getLogger("elastyle")
@@ -26,6 +27,7 @@ def add_eval_commands(commands: Any) -> None:
     )
     evaluate.add_argument("--pairs", type=int, default=24, help="benchmark pairs per set (default 24)")
     evaluate.add_argument("--model", help="model file (default: the shipped model)")
+    add_units_flag(evaluate)
     evaluate.add_argument("--out", help="folder for benchmark.json and benchmark.md")
     evaluate.add_argument("--json", action="store_true", help="print figures as JSON")
     evaluate.add_argument("--force", action="store_true")
@@ -61,11 +63,13 @@ def run_eval(args: argparse.Namespace) -> int:
         return 0
     if not (args.output and args.content and args.style):
         raise UsageError("give OUT.bvh --content C.bvh --style S.bvh, or --benchmark DATA")
-    from elastyle.core.body import no_legs_note
+    from elastyle.core.body import in_units, no_legs_note
     from elastyle.eval.report import transfer_figures
     from elastyle.model.depth import clip_depth
 
-    output, content, style = (read_clip(path)[0] for path in (args.output, args.content, args.style))
+    output, content, style = (
+        in_units(read_clip(path)[0], args.units) for path in (args.output, args.content, args.style)
+    )
     figures = transfer_figures(output, content, style)
     note = no_legs_note(output.skeleton, args.output)
     if note is not None:

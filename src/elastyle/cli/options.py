@@ -38,3 +38,14 @@ def config_from_args(config_type: type, args: argparse.Namespace) -> Any:
 
 def _shown(value: Any) -> str:
     return f"{value:.4g}" if isinstance(value, float) else str(value)
+
+
+def add_units_flag(parser: argparse.ArgumentParser) -> None:
+    """`--units`: the clips' length unit, where the guess from the rest height would be wrong."""
+    from elastyle.core.body import UNITS
+
+    parser.add_argument(
+        "--units", choices=sorted(UNITS),
+        help="the clips' length unit (default: guessed from the rest height: metres below 5 units tall, inches "
+        "from 40 to 90, else centimetres); it scales reported figures and .glb output, not the transfer",
+    )  # fmt: skip

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from elastyle.cli.batch import Job, run_local, run_on_dask, transfer_one
-from elastyle.cli.options import add_config_flags, config_from_args
+from elastyle.cli.options import add_config_flags, add_units_flag, config_from_args
 from elastyle.core.motion import Motion
 from elastyle.errors import BvhError, OutputError, UsageError
 from elastyle.io.dataset import ClipRef
@@ -39,6 +39,7 @@ def add_transfer_command(commands: Any) -> None:
         help="output file (.bvh, or .glb: binary glTF 2.0), or DIR/ for several content clips",
     )
     parser.add_argument("--model", help="model file (default: the shipped pretrained model)")
+    add_units_flag(parser)
     add_config_flags(parser, TransferConfig)
     parser.add_argument(
         "--then-style", action="append", help="a second style to change to (see --at, --over)"
@@ -164,8 +165,9 @@ def run_transfer(args: argparse.Namespace) -> int:
 
     part_styles = {names: library([spec]) for names, spec in _style_parts(args)}
     job = Job(
-        style, model, config, second, second_weight, part_styles, args.force, args.explain, _inputs(args)
-    )
+        style, model, config, second, second_weight, part_styles, args.units, args.force, args.explain,
+        _inputs(args),
+    )  # fmt: skip
     if len(args.content) == 1:
         transfer_one(job, args.content[0], targets[0])
         return 0

@@ -9,11 +9,12 @@ deepest joint is the toe and the toe's parent the ankle; thresholds elsewhere ar
 from __future__ import annotations
 
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
 
+from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
 from elastyle.types import FloatArray, IntArray
 
@@ -58,14 +59,28 @@ def yaw_matrices(yaw: FloatArray) -> FloatArray:
     return matrices
 
 
+UNITS = {"cm": 1.0, "m": 100.0, "mm": 0.1, "in": 2.54}  # centimetres per unit, by the names `--units` takes
+
+
 def centimetres_per_unit(skeleton: Skeleton) -> float:
-    """Guess the file's length unit from the rest height: metres, centimetres or inches (default cm)."""
+    """The file's length unit in centimetres: as the user stated it (`Skeleton.unit_cm`), else guessed from
+    the rest height: metres below 5 units tall, inches from 40 to 90, else centimetres."""
+    if skeleton.unit_cm is not None:
+        return skeleton.unit_cm
     height = skeleton.height()
     if height < 5:
         return 100.0
     if 40 < height < 90:
         return 2.54
     return 1.0
+
+
+def in_units(motion: Motion, unit: str | None) -> Motion:
+    """The clip with its length unit stated (a key of `UNITS`), or as it is for None."""
+    if unit is None:
+        return motion
+    skeleton = replace(motion.skeleton, unit_cm=UNITS[unit])
+    return Motion(skeleton, motion.rotations, motion.translations, motion.fps)
 
 
 @dataclass(frozen=True)

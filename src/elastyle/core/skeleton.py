@@ -34,6 +34,8 @@ class Skeleton:
     parents: (J,) parent index per joint, -1 for the root; parents[j] < j.
     offsets: (J, 3) rest offset of each joint from its parent, in the file's length unit.
     end_sites: (J, 3) End Site offset of each joint (NaN where the joint has none).
+    unit_cm: centimetres per file unit where the user stated the unit (`--units`); None: guessed from the
+             rest height (`core.body.centimetres_per_unit`).
     A skeleton is immutable: lookups derived from it (pelvis, mirror pairs, limbs) are computed once.
     """
 
@@ -41,6 +43,7 @@ class Skeleton:
     parents: IntArray
     offsets: FloatArray
     end_sites: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
+    unit_cm: float | None = None
 
     def __post_init__(self) -> None:
         num_joints = len(self.names)
