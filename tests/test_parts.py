@@ -107,6 +107,39 @@ def test_keep_part_and_style_part_on_the_command_line(tmp_path: Path, dataset_cl
     content = clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0]
     arm = body_parts(content.skeleton)["left-arm"]
     np.testing.assert_allclose(read_bvh(out)[0].rotations[:, arm], content.rotations[:, arm], atol=1e-4)
-    wrong = subprocess.run([*command[:-4], "--style-part", "tail=" + run], capture_output=True, text=True)
-    assert wrong.returncode == 2 and "unknown body part 'tail'" in wrong.stderr
-    assert len(wrong.stderr.strip().splitlines()) == 1
+    for bad, message in (("tail=" + run, "unknown body part 'tail'"), (",=" + run, "names no body part"),
+                         ("arms=", "give PART=CLIP")):  # fmt: skip
+        wrong = subprocess.run([*command[:-4], "--style-part", bad], capture_output=True, text=True)
+        assert wrong.returncode == 2 and message in wrong.stderr, wrong.stderr
+        assert len(wrong.stderr.strip().splitlines()) == 1
+
+
+def test_strength_zero_stays_the_content_where_the_legs_keep_it(
+    model, clips: dict[str, Motion], dataset_clips: list[ClipRef]
+) -> None:  # type: ignore[no-untyped-def]
+    """A walk given a wave's style keeps its legs and spine; where the strength is 0 nothing moves at all."""
+    walk = clips["walk_normal_005"]
+    wave = clip_named(dataset_clips, "dataset-2_wave-both-hands_youthful_005").read()[0]
+    result = transfer(walk, wave, model=model, strength="0:0,4:0,6:1")
+    assert any(p["mode"] == "content" for p in result.explain["styles"][0]["patches"])
+    quiet = int(3.5 * walk.fps)  # the output keeps the content's clock while the strength is 0
+    out, content = result.motion.positions()[:quiet], walk.positions()[:quiet]
+    assert np.abs(out - content).max() < 0.05  # cm
+
+
+def test_a_part_styled_by_another_clip_keeps_the_content_where_that_clip_acts_otherwise(
+    model, clips: dict[str, Motion], dataset_clips: list[ClipRef]
+) -> None:  # type: ignore[no-untyped-def]
+    """Legs given a wave's manner under a walk's style: the wave's legs stand, so the legs keep walking."""
+    walk, proud = clips["walk_normal_005"], clips["walk_masculine_010"]
+    wave = clip_named(dataset_clips, "dataset-2_wave-both-hands_youthful_005").read()[0]
+    result = transfer(walk, proud, model=model, part_styles={"legs": wave})
+    alone = transfer(walk, proud, model=model).motion
+    assert cadence_steps_s(result.motion) == pytest.approx(cadence_steps_s(alone), rel=0.1)
+    legs = body_parts(walk.skeleton)["legs"]
+    kept = transfer(walk, proud, model=model, keep_part="legs").motion  # the content's legs on that clock
+    assert np.abs(result.motion.rotations[:, legs] - kept.rotations[:, legs]).max() < 0.05
+    (entry,) = result.explain["part_styles"]
+    assert entry["parts"] == ["legs"] and {p["mode"] for p in entry["patches"]} == {"content"}
+    with pytest.raises(ConfigError, match="two styles"):
+        transfer(walk, proud, model=model, part_styles={"arms": wave, "left-arm": proud})

@@ -35,7 +35,7 @@ from elastyle.core.motion import Motion
 from elastyle.core.parts import parse_parts, part_joints
 from elastyle.core.resample import interpolate_rows
 from elastyle.core.threads import one_blas_thread
-from elastyle.errors import ClipTooShortError, ResultError
+from elastyle.errors import ClipTooShortError, ConfigError, ResultError
 from elastyle.model.depth import depth_warning, reconstruction_error_cm
 from elastyle.model.file import StyleModel, load_model
 from elastyle.steps.action import action_channels, part_channels
@@ -111,6 +111,11 @@ def transfer(
          as_library(model, part_style, None, config.mirror_style))
         for names, part_style in (part_styles or {}).items()
     ]  # fmt: skip
+    styled_joints = np.concatenate([joints for joints, _ in by_part]) if by_part else np.zeros(0, np.int64)
+    if len(np.unique(styled_joints)) < len(styled_joints):
+        raise ConfigError(
+            f"{content_name}: a body part is given two styles (--style-part); give each part one"
+        )
 
     # features and encode: the content's latents (T, Z) and the root path a transfer keeps
     content_latents, root = model.encode_motion(working)
@@ -140,7 +145,7 @@ def transfer(
     root_out = root.sample(content_time)
     styled = decode_plain(model, on_output_frames(latents, grid, content_time), root_out, config.smooth_s)
     # parts styled by another library: their own track, decoded on the same timeline, joint by joint
-    part_tracks = []
+    part_tracks = []  # (joints, track) of each part styled by another library
     for joints, library in by_part:
         track = style_track(content_latents, actions, library, grid, config, fps, columns)
         part_latents, _ = mix_tracks(content_on_grid, strength, [track], [np.ones_like(grid)])
@@ -148,19 +153,19 @@ def transfer(
             model, on_output_frames(part_latents, grid, content_time), root_out, config.smooth_s
         )
         styled = styled.with_joints(part, joints)
-        part_tracks.append(track)
+        part_tracks.append((joints, track))
     _check_finite(styled, "decoding", content_name)
     positions, content_frames = output_frames(
         content_time, fps, content.fps, content.num_frames, config.timing
     )
     base = None  # the model's reading of the content on the output's timeline (residual decoding)
+    strength_out = config.strength_schedule.at(content_frames / content.fps)  # (N,)
     if config.decode == "plain":
         motion = _plain_output(styled, content, positions, config)
     else:
         base = decode_plain(
             model, on_output_frames(content_on_grid, grid, content_time), root_out, config.smooth_s
         )
-        strength_out = config.strength_schedule.at(content_frames / content.fps)  # (N,)
         motion = compose_residual(
             styled, base, content, positions, content_frames, strength_out, config.residual_smooth_s
         )
@@ -168,14 +173,22 @@ def transfer(
         if config.cleanup:
             motion = blend_by_strength(motion, _clean_up(motion, config), strength_out)
     # body parts that keep the content's action: kept ones throughout, the others where the style does another
-    keep = keep_weights(tracks, shares, content.skeleton, grid, content_time, positions, kept)  # (N, J)
+    keep = keep_weights(tracks, shares, part_tracks, content.skeleton, grid, content_time, positions, kept)
     if np.any(keep > 0):
         content_at = frames_of(content, content_frames)
         reference = content_at if base is None else frames_of(base, positions)
-        target = keep_target(content_at, frames_of(styled, positions), reference, keep, kept)
+        target = keep_target(content_at, frames_of(styled, positions), reference, keep, kept, strength_out)
         motion = blend_by_strength(motion, target, keep)
     _check_finite(motion, "foot clean-up" if config.cleanup else "decoding", content_name)
     record = explain(tracks, libraries, content_time, fps, config)
+    if part_tracks:
+        part_record = explain(
+            [t for _, t in part_tracks], [lib for _, lib in by_part], content_time, fps, config
+        )
+        record["part_styles"] = [
+            {"parts": list(parse_parts(names, "--style-part")), **entry}
+            for names, entry in zip((part_styles or {}).keys(), part_record["styles"])
+        ]
     record["content_reconstruction_cm"] = round(error_cm, 3)
     return TransferResult(motion, record)
 

@@ -47,6 +47,10 @@ def run_eval(args: argparse.Namespace) -> int:
     from elastyle.io.dataset import read_clip
     from elastyle.model.file import load_model
 
+    if args.benchmark and args.units:
+        raise UsageError(
+            "--units applies to OUT, --content and --style; the benchmark's dataset is in centimetres"
+        )
     if args.benchmark:
         from elastyle.eval.suite import markdown_table, run_benchmark
         from elastyle.io.files import write_text_atomic

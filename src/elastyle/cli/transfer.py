@@ -183,11 +183,16 @@ def _style_parts(args: argparse.Namespace) -> list[tuple[str, str]]:
     from elastyle.core.parts import parse_parts
 
     pairs = []
+    taken: set[str] = set()
     for spec in args.style_part or []:
         names, _, clip = spec.partition("=")
         if not names.strip() or not clip.strip():
             raise UsageError(f"--style-part {spec!r}: give PART=CLIP, for example arms=proud_walk.bvh")
-        parse_parts(names, "--style-part")  # a ConfigError (a usage error) for an unknown part
+        parts = parse_parts(names, "--style-part")  # a ConfigError (a usage error) for an unknown part
+        twice = sorted(set(parts) & taken)
+        if twice:
+            raise UsageError(f"--style-part: {twice[0]} is given two styles; give each part one")
+        taken |= set(parts)
         pairs.append((names, clip))
     return pairs
 

@@ -86,8 +86,9 @@ class TransferConfig:
     keep_action_above: float = option(
         0.35,
         "per body part: where the legs' travel and steps differ from the matched style windows' by more than "
-        "this (relative RMS of their action descriptors), the legs and arms keep the content's action and "
-        "pace, eased in over 0.15 above it (a walk given a run's or a wave's style still walks); 2: never",
+        "this (relative RMS of their action descriptors), the legs and spine keep the content's action and "
+        "pace (the spine with the style's mean posture), eased in over 0.15 above it (a walk given a run's or "
+        "a wave's style still walks); 2: never",
         low=0.0, high=2.0,
     )  # fmt: skip
     keep_part: str = option(
