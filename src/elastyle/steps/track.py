@@ -157,8 +157,7 @@ def part_mismatch(
 def keep_share(mismatch: FloatArray, above: float, ease_steps: float) -> FloatArray:
     """(G,) 0 where a part's mismatch (G,) is at most `above`, rising smoothly to 1 at `KEEP_RAMP` over it,
     eased in and out in time (Gaussian, sigma `ease_steps` grid steps)."""
-    x = np.clip((mismatch - above) / KEEP_RAMP, 0.0, 1.0)
-    return np.clip(smooth(x * x * (3 - 2 * x), ease_steps), 0.0, 1.0)
+    return _eased((mismatch - above) / KEEP_RAMP, ease_steps)
 
 
 def fallback_share(similarity: FloatArray, below: float, ease_steps: float) -> FloatArray:
@@ -166,7 +165,13 @@ def fallback_share(similarity: FloatArray, below: float, ease_steps: float) -> F
     `FALLBACK_RAMP` under it, then eased in and out in time (Gaussian, sigma `ease_steps` grid steps)."""
     if below <= -1:
         return np.zeros_like(similarity)
-    x = np.clip((below - similarity) / FALLBACK_RAMP, 0.0, 1.0)
+    return _eased((below - similarity) / FALLBACK_RAMP, ease_steps)
+
+
+def _eased(ramp: FloatArray, ease_steps: float) -> FloatArray:
+    """(G,) a ramp (G,) clipped to [0, 1] through a smoothstep, then eased in and out in time (Gaussian,
+    sigma `ease_steps` grid steps)."""
+    x = np.clip(ramp, 0.0, 1.0)
     return np.clip(smooth(x * x * (3 - 2 * x), ease_steps), 0.0, 1.0)
 
 
