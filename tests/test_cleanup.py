@@ -12,7 +12,7 @@ from elastyle.eval.metrics import foot_skating_cm_s, jerk
 from elastyle.io.bvh_read import parse_bvh
 from elastyle.io.dataset import ClipRef
 from elastyle.steps.cleanup import adjust_root_speed, clean_feet
-from elastyle.steps.contacts import detect_contacts, ground_level
+from elastyle.steps.contacts import HEEL, TOE, detect_contacts, detect_point_contacts, ground_level, mask_runs
 from elastyle.types import BoolArray, FloatArray
 from tests.conftest import THREE_CHANNEL_BVH, clip_named
 
@@ -99,6 +99,26 @@ def test_contacts_on_a_real_walk(walk_clip: ClipRef) -> None:
     np.testing.assert_allclose(
         clean_feet(metres).positions() * 100, clean_feet(motion).positions(), atol=1e-6
     )
+
+
+def test_heel_and_toe_have_their_own_tracks(dataset_clips: list[ClipRef]) -> None:
+    """A walk rolls from heel to toe: most stances start on the heel and end on the toe; the foot's contact
+    is the union of its two tracks."""
+    for stem in ("dataset-2_walk_normal_005", "dataset-2_walk_feminine_015"):
+        motion = clip_named(dataset_clips, stem).read()[0]
+        points, feet = detect_point_contacts(motion), detect_contacts(motion)
+        assert points.shape == (motion.num_frames, 2, 2)
+        assert np.all(points.any(axis=2) <= feet)  # a planted toe or heel is a planted foot
+        heel_first = toe_last = stances = 0
+        for foot in range(2):
+            for start, stop in mask_runs(feet[:, foot]):
+                toe, heel = (np.flatnonzero(points[start:stop, foot, k]) for k in (TOE, HEEL))
+                assert len(toe) or len(heel)
+                if len(toe) and len(heel):
+                    stances += 1
+                    heel_first += heel[0] < toe[0]
+                    toe_last += toe[-1] > heel[-1]
+        assert stances >= 6 and heel_first >= 0.6 * stances and toe_last >= 0.8 * stances, stem
 
 
 def test_contacts_of_a_run_are_short(dataset_clips: list[ClipRef]) -> None:

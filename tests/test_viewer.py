@@ -249,9 +249,10 @@ def test_headless_browser_plays_and_draws_skeletons(
 def test_payload_carries_foot_contacts(dataset_clips: list[ClipRef]) -> None:
     motion, _ = clip_named(dataset_clips, "dataset-2_walk_normal_005").read()
     clip = build_payload([motion], ["walk"])["clips"][0]
-    assert [motion.skeleton.names[t] for t in clip["toes"]] == ["Toes_L", "Toes_R"]
-    contacts = np.array(clip["contacts"]).reshape(motion.num_frames, 2)
-    assert 0.3 < contacts.mean() < 0.9  # a walk: each foot planted for part of its cycle
+    names = [motion.skeleton.names[j] for j in clip["contact_points"]]
+    assert names == ["Toes_L", "Foot_L", "Toes_R", "Foot_R"]  # each foot's toe and heel
+    contacts = np.array(clip["contacts"]).reshape(motion.num_frames, 2, 2)
+    assert np.all((0.3 < contacts.mean(axis=0)) & (contacts.mean(axis=0) < 0.9))  # planted part of a cycle
 
 
 def test_explain_shows_style_clips_by_name_only(tmp_path: Path) -> None:

@@ -17,6 +17,7 @@ from elastyle.core.rotations import lengths
 from elastyle.core.smoothing import frame_steps
 from elastyle.types import BoolArray, FloatArray
 
+TOE, HEEL = 0, 1  # a foot's two contact points, last axis of point contacts: the toe joint, the ankle joint
 GROUND_PERCENTILE = 5.0  # a foot joint's ground level: this percentile of its heights over the clip
 # the nearest sample to that percentile: numpy's interpolating method costs a 30 ms import (numpy.ma) on
 # its first call in a process, a tenth of a command-line transfer
@@ -42,56 +43,76 @@ def ground_level(motion: Motion, positions: FloatArray | None = None) -> float:
 
 
 def detect_contacts(motion: Motion, positions: FloatArray | None = None) -> BoolArray:
-    """(T, F) True where foot f is planted, F = len(find_limbs(skeleton).toes).
+    """(T, F) True where foot f is planted (its toe or its heel), F = len(find_limbs(skeleton).toes).
 
-    positions: (T, J, 3) the clip's world positions when already known (at least the pelvis, toes and
-    ankles). A foot enters contact when its toe or its ankle is near its ground level and either slow
-    horizontally or, while the pelvis travels, level and not moving ahead of the pelvis along the direction
-    of travel (a stance foot whose stride is shorter than the ground the root covers slides back, a swing
-    foot overtakes the pelvis). It leaves when neither joint is near the ground and held (looser thresholds:
-    hysteresis). Contacts and gaps shorter than `MIN_CONTACT_S` are removed. Walking forwards, backwards or
-    sideways, running and turning on the spot alike: nothing assumes which way the body faces.
+    The union of `detect_point_contacts`' toe and heel tracks, with gaps shorter than `MIN_CONTACT_S`
+    filled (a heel lifting a frame before the toe lands is one contact).
     """
-    limbs = find_limbs(motion.skeleton)
-    if len(limbs.toes) == 0:
-        return np.zeros((motion.num_frames, 0), dtype=bool)
-    if positions is None:
-        positions = motion.positions(limbs.feet)  # (T, J, 3), the legs only
-    leg = leg_length(motion.skeleton, limbs)
-    joints = np.stack([limbs.toes, limbs.ankles])  # (2, F) toe and ankle of each foot
-    heights = positions[:, joints, 1]  # (T, 2, F)
-    heights = heights - np.percentile(
-        heights, GROUND_PERCENTILE, axis=(0, 2), keepdims=True, method=PERCENTILE_METHOD
-    )
-    per_second = motion.fps / leg  # a frame step in file units, as leg lengths per second
-    velocity = frame_steps(positions[:, joints]) * per_second  # (T, 2, F, 3) legs/s
-    speed = lengths(velocity[..., [0, 2]])  # (T, 2, F)
-    pelvis = frame_steps(positions[:, motion.skeleton.pelvis])[:, [0, 2]] * per_second  # (T, 2)
-    pelvis_speed = lengths(pelvis)  # (T,)
-    travel = pelvis / np.maximum(pelvis_speed, 1e-12)[:, None]  # (T, 2) unit direction of travel
-    ahead = np.einsum("tjfc,tc->tjf", velocity[..., [0, 2]], travel) - pelvis_speed[:, None, None]
-    travelling = (pelvis_speed > TRAVEL_SPEED_LEGS_S)[:, None, None]
-    behind = (ahead < -BEHIND_OF_TRAVEL * pelvis_speed[:, None, None]) & travelling  # (T, 2, F)
-    level = np.abs(velocity[..., 1]) < ENTER_VERTICAL_LEGS_S
-    enter = (heights < ENTER_HEIGHT_OF_LEG * leg) & ((speed < ENTER_SPEED_LEGS_S) | (behind & level))
-    stay = (heights < EXIT_HEIGHT_OF_LEG * leg) & ((speed < EXIT_SPEED_LEGS_S) | behind)
-    contacts = _hysteresis(np.any(enter, axis=1), np.any(stay, axis=1))  # (T, F)
-    min_frames = max(1, int(np.ceil(MIN_CONTACT_S * motion.fps)))
-    for foot in range(contacts.shape[1]):
-        for start, stop in mask_runs(~contacts[:, foot]):  # fill short gaps between two contacts
-            if 0 < start and stop < motion.num_frames and stop - start < min_frames:
-                contacts[start:stop, foot] = True
-        for start, stop in mask_runs(contacts[:, foot]):
-            if stop - start < min_frames:
-                contacts[start:stop, foot] = False
+    contacts: BoolArray = np.any(detect_point_contacts(motion, positions), axis=2)  # (T, F)
+    _drop_short_runs(contacts, max(1, int(np.ceil(MIN_CONTACT_S * motion.fps))), gaps_only=True)
     return contacts
 
 
+def detect_point_contacts(motion: Motion, positions: FloatArray | None = None) -> BoolArray:
+    """(T, F, 2) True where the toe (`TOE`) or the heel (`HEEL`: the ankle joint) of foot f is planted.
+
+    positions: (T, J, 3) the clip's world positions when already known (at least the pelvis, toes and
+    ankles). Each point has its own track: at heel strike the heel is planted before the toe, at toe-off
+    the toe stays after the heel has lifted, a run's short contacts may hold the toe only. A point enters
+    contact when it is near its ground level and either slow horizontally or, while the pelvis travels,
+    level and not moving ahead of the pelvis along the direction of travel (a stance foot whose stride is
+    shorter than the ground the root covers slides back, a swing foot overtakes the pelvis). It leaves when
+    it is no longer near the ground and held (looser thresholds: hysteresis). Contacts and gaps shorter than
+    `MIN_CONTACT_S` are removed. Walking forwards, backwards or sideways, running and turning on the spot
+    alike: nothing assumes which way the body faces.
+    """
+    limbs = find_limbs(motion.skeleton)
+    if len(limbs.toes) == 0:
+        return np.zeros((motion.num_frames, 0, 2), dtype=bool)
+    if positions is None:
+        positions = motion.positions(limbs.feet)  # (T, J, 3), the legs only
+    leg = leg_length(motion.skeleton, limbs)
+    joints = np.stack([limbs.toes, limbs.ankles], axis=1)  # (F, 2) toe and heel of each foot
+    heights = positions[:, joints, 1]  # (T, F, 2)
+    heights = heights - np.percentile(
+        heights, GROUND_PERCENTILE, axis=(0, 1), keepdims=True, method=PERCENTILE_METHOD
+    )
+    per_second = motion.fps / leg  # a frame step in file units, as leg lengths per second
+    velocity = frame_steps(positions[:, joints]) * per_second  # (T, F, 2, 3) legs/s
+    speed = lengths(velocity[..., [0, 2]])  # (T, F, 2)
+    pelvis = frame_steps(positions[:, motion.skeleton.pelvis])[:, [0, 2]] * per_second  # (T, 2)
+    pelvis_speed = lengths(pelvis)  # (T,)
+    travel = pelvis / np.maximum(pelvis_speed, 1e-12)[:, None]  # (T, 2) unit direction of travel
+    ahead = np.einsum("tfkc,tc->tfk", velocity[..., [0, 2]], travel) - pelvis_speed[:, None, None]
+    travelling = (pelvis_speed > TRAVEL_SPEED_LEGS_S)[:, None, None]
+    behind = (ahead < -BEHIND_OF_TRAVEL * pelvis_speed[:, None, None]) & travelling  # (T, F, 2)
+    level = np.abs(velocity[..., 1]) < ENTER_VERTICAL_LEGS_S
+    enter = (heights < ENTER_HEIGHT_OF_LEG * leg) & ((speed < ENTER_SPEED_LEGS_S) | (behind & level))
+    stay = (heights < EXIT_HEIGHT_OF_LEG * leg) & ((speed < EXIT_SPEED_LEGS_S) | behind)
+    contacts = _hysteresis(enter, stay)  # (T, F, 2)
+    _drop_short_runs(contacts, max(1, int(np.ceil(MIN_CONTACT_S * motion.fps))))
+    return contacts
+
+
+def _drop_short_runs(contacts: BoolArray, min_frames: int, gaps_only: bool = False) -> None:
+    """In place on (T, ...) tracks: fill gaps shorter than `min_frames` between two contacts, then (unless
+    `gaps_only`) remove contacts shorter than that."""
+    tracks = contacts.reshape(contacts.shape[0], -1)  # a view: (T, tracks)
+    for track in range(tracks.shape[1]):
+        for start, stop in mask_runs(~tracks[:, track]):
+            if 0 < start and stop < len(tracks) and stop - start < min_frames:
+                tracks[start:stop, track] = True
+        if not gaps_only:
+            for start, stop in mask_runs(tracks[:, track]):
+                if stop - start < min_frames:
+                    tracks[start:stop, track] = False
+
+
 def _hysteresis(enter: BoolArray, stay: BoolArray) -> BoolArray:
-    """(T, F) on from a frame where `enter` holds for as long as `stay` holds after it:
+    """(T, ...) on from a frame where `enter` holds for as long as `stay` holds after it:
     on[t] = enter[t] or (on[t-1] and stay[t]), i.e. the last enter frame is no earlier than the last
     frame where stay fails."""
-    frames = np.arange(enter.shape[0])[:, None]  # (T, 1)
+    frames = np.arange(enter.shape[0]).reshape(-1, *[1] * (enter.ndim - 1))  # (T, 1, ...)
     last_enter = np.maximum.accumulate(np.where(enter, frames, -1), axis=0)
     last_break = np.maximum.accumulate(np.where(stay, -1, frames), axis=0)
     return (last_enter >= 0) & (last_enter >= last_break)
@@ -109,13 +130,15 @@ def pivots(positions: FloatArray, limbs: Limbs, leg: float) -> tuple[FloatArray,
     The toe is what skating metrics watch and it stays put from foot-flat to toe-off; only at heel strike
     (toe still coming down, higher than the ankle above their ground levels) does the ankle carry the
     weight. The hold fades from 1 to 0 as that pivot rises from half the entry height to the exit height,
-    so a foot lifting off leaves gently instead of being pinned until the contact ends.
+    so a foot lifting off leaves gently instead of being pinned until the contact ends. Heights choose the
+    pivot, not `detect_point_contacts`' tracks: on a decoded clip whose feet slide, a sliding toe fails its
+    track's speed test while the heel passes, and holding the heel there leaves the toe sliding.
     """
     points = np.stack([positions[:, limbs.toes], positions[:, limbs.ankles]], axis=2)  # (T, F, 2, 3)
     heights = points[..., 1] - np.percentile(
         points[..., 1], GROUND_PERCENTILE, axis=(0, 1), method=PERCENTILE_METHOD
     )  # (T, F, 2)
-    toe_weight = _smoothstep(1.0 + (heights[..., 1] - heights[..., 0]) / (ENTER_HEIGHT_OF_LEG * leg))
+    toe_weight = _smoothstep(1.0 + (heights[..., HEEL] - heights[..., TOE]) / (ENTER_HEIGHT_OF_LEG * leg))
     weights = np.stack([toe_weight, 1 - toe_weight], axis=-1)  # (T, F, 2), sums to 1
     pivot_height = np.sum(weights * heights, axis=-1)  # (T, F)
     low, high = 0.5 * ENTER_HEIGHT_OF_LEG * leg, EXIT_HEIGHT_OF_LEG * leg

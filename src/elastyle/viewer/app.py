@@ -71,14 +71,17 @@ def build_payload(
 
 
 def _contacts(motion: Motion) -> dict[str, Any]:
-    """Toe joints (F,) and their planted frames (T * F,) as 0/1, from `cleanup.detect_contacts`; none if no legs."""
+    """Each foot's toe and heel (ankle) joints (F * 2,) and their planted frames (T * F * 2,) as 0/1, from
+    `steps.contacts.detect_point_contacts`; none if no legs."""
     from elastyle.core.body import find_limbs
-    from elastyle.steps.contacts import detect_contacts
+    from elastyle.steps.contacts import detect_point_contacts
 
-    toes = find_limbs(motion.skeleton).toes
-    if len(toes) == 0:
-        return {"toes": [], "contacts": []}
-    return {"toes": toes.tolist(), "contacts": detect_contacts(motion).astype(np.int8).ravel().tolist()}
+    limbs = find_limbs(motion.skeleton)
+    if len(limbs.toes) == 0:
+        return {"contact_points": [], "contacts": []}
+    points = np.stack([limbs.toes, limbs.ankles], axis=1)  # (F, 2) toe, heel
+    contacts = detect_point_contacts(motion).astype(np.int8)  # (T, F, 2)
+    return {"contact_points": points.ravel().tolist(), "contacts": contacts.ravel().tolist()}
 
 
 def read_explain(path: str | os.PathLike[str]) -> dict[str, Any]:
