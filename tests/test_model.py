@@ -154,7 +154,7 @@ def test_training_works_on_another_skeleton(tmp_path: Path, three_channel_bvh: P
     model = train(
         [str(tmp_path / "*.bvh")],
         str(tmp_path / "own.npz"),
-        TrainConfig(steps=3, window_s=2.0),
+        TrainConfig(steps=3, window_s=2.0, perturb_augment=0.5),
         progress=False,
     )
     assert model.skeleton.names == motion.skeleton.names
@@ -168,3 +168,18 @@ def test_training_works_on_another_skeleton(tmp_path: Path, three_channel_bvh: P
     np.testing.assert_allclose(same.positions(), content.positions(), atol=5e-4)
     plain = transfer(content, style, model=loaded, strength=0.0, decode="plain").motion
     assert np.abs(plain.positions() - content.positions()).max() > 0.1
+
+
+def test_perturbation_moves_whole_joints_within_their_recorded_ranges() -> None:
+    from elastyle.training.windows import perturb_windows
+
+    rng = np.random.default_rng(0)
+    windows = rng.uniform(-1, 1, size=(64, 9, 20)).astype(np.float32)  # (B, C, W): 3 joints x 3 channels
+    groups = np.repeat(np.arange(3), 3)
+    low, high = np.full(9, -1.2, np.float32), np.full(9, 1.2, np.float32)  # the recorded ranges
+    assert np.array_equal(perturb_windows(windows, 0.0, 0.5, groups, low, high, rng), windows)
+    perturbed = perturb_windows(windows, 0.5, 0.5, groups, low, high, rng)
+    moved = np.any(perturbed != windows, axis=2).reshape(64, 3, 3)  # (B, joint, channel)
+    assert np.all(moved.all(axis=2) == moved.any(axis=2))  # a joint's channels move together
+    assert 10 < moved.any(axis=(1, 2)).sum() < 54  # about half the windows
+    assert perturbed.min() >= -1.2 and perturbed.max() <= 1.2  # never past the recorded range

@@ -155,6 +155,21 @@ def test_every_wrong_option_exits_2_before_reading_anything(
     assert not (tmp_path / "x.bvh").exists()
 
 
+@pytest.mark.parametrize(
+    "flags, named",
+    [
+        (["--perturb-augment", "1.5"], "--perturb-augment"),
+        (["--reverse-augment", "-0.1"], "--reverse-augment"),
+        (["--perturb-scale", "-1"], "--perturb-scale"),
+    ],
+)
+def test_wrong_training_shares_exit_2(tmp_path: Path, flags: list[str], named: str) -> None:
+    result = _cli("train", "missing.zip", "-o", str(tmp_path / "m.npz"), "--steps", "1", *flags)
+    assert result.returncode == 2, result.stderr
+    assert named in result.stderr and "Traceback" not in result.stderr
+    assert not (tmp_path / "m.npz").exists()
+
+
 def test_every_config_field_is_a_transfer_flag() -> None:
     """TransferConfig is the one declaration of the options: each field has a flag of its name."""
     from dataclasses import fields

@@ -38,6 +38,14 @@ def add_train_commands(commands: Any) -> None:
         help="share of batches played at a speed drawn from 0.5x to 2x",
     )  # fmt: skip
     trainer.add_argument(
+        "--perturb-augment", type=float, default=0.0,
+        help="share of training windows whose joints get random offsets within their recorded ranges",
+    )  # fmt: skip
+    trainer.add_argument(
+        "--perturb-scale", type=float, default=0.5,
+        help="size of those offsets, in standard deviations of each channel (default 0.5)",
+    )  # fmt: skip
+    trainer.add_argument(
         "--exclude", action="append", help="leave out clips whose name matches this glob (repeatable)"
     )
     trainer.add_argument("--fps", type=float, help="resample clips to this rate (default: the first clip's)")
@@ -79,6 +87,11 @@ def _command_train(args: argparse.Namespace) -> int:
         torch.set_num_threads(args.threads)
     if args.minutes is None and args.steps is None:
         raise UsageError("give a training budget: --minutes or --steps")
+    for flag in ("reverse_augment", "speed_augment", "perturb_augment"):
+        if not 0 <= getattr(args, flag) <= 1:
+            raise UsageError(f"--{flag.replace('_', '-')} is a share of windows, from 0 to 1")
+    if not 0 <= args.perturb_scale <= 10:
+        raise UsageError("--perturb-scale is in standard deviations, from 0 to 10")
     model_config = ModelConfig(
         hidden_channels=args.hidden,
         latent_channels=args.latent,
@@ -97,6 +110,8 @@ def _command_train(args: argparse.Namespace) -> int:
         mirror_augment=not args.no_mirror,
         reverse_augment=args.reverse_augment,
         speed_augment=args.speed_augment,
+        perturb_augment=args.perturb_augment,
+        perturb_scale=args.perturb_scale,
         fps=args.fps,
         position_loss=args.position_loss,
     )

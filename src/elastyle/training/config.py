@@ -17,6 +17,8 @@ class TrainConfig:
     reverse_augment: share of windows played backwards (a backward walk from a forward one).
     speed_augment: share of batches resampled in time by a factor drawn log-uniformly from speed_range
         (0.5 = half speed, 2 = twice as fast).
+    perturb_augment: share of windows whose joints get random offsets (`perturb_scale` standard deviations,
+        drifting over the window) within the recorded ranges: poses no clip holds.
     position_loss: weight of a forward-kinematics joint position and velocity loss; position_scale is the
         length (file units) that counts as 1 in it.
     """
@@ -33,6 +35,8 @@ class TrainConfig:
     reverse_augment: float = 0.0
     speed_augment: float = 0.0
     speed_range: tuple[float, float] = (0.5, 2.0)
+    perturb_augment: float = 0.0
+    perturb_scale: float = 0.5
     holdout_every: int = HOLDOUT_EVERY
     checkpoint_every: int = 500
     fps: float | None = None  # default: the first clip's

@@ -29,7 +29,7 @@ from elastyle.model.depth import calibrate
 from elastyle.model.features import FeatureSpec
 from elastyle.model.file import StyleModel, save_model
 from elastyle.training.config import TrainConfig
-from elastyle.training.windows import draw_speed, sample_windows
+from elastyle.training.windows import draw_speed, perturb_windows, sample_windows
 
 log = logging.getLogger(__name__)
 
@@ -100,6 +100,9 @@ def train(
     train_norm = [((f - mean) / std).astype(np.float32) for f in train_features]
     val_norm = [((f - mean) / std).astype(np.float32) for f in val_features if f.shape[0] >= window]
     longest = max(f.shape[0] for f in train_features)
+    # per-joint perturbation: each joint's channels move together, within the recorded range
+    groups = np.minimum(np.arange(spec.num_channels) // 3, spec.num_channels // 3 - 1)  # (C,) joint ids
+    low, high = (np.min(stacked, axis=0) - mean) / std, (np.max(stacked, axis=0) - mean) / std
 
     from elastyle.training.network import PosePositions, TorchAutoencoder
 
@@ -146,9 +149,13 @@ def train(
             for group in optimizer.param_groups:
                 group["lr"] = rate
         speed = min(draw_speed(rng, config.speed_augment, config.speed_range), longest / window)
-        batch = torch.from_numpy(
-            sample_windows(train_norm, window, config.batch_size, rng, speed, config.reverse_augment)
-        )
+        windows = sample_windows(train_norm, window, config.batch_size, rng, speed, config.reverse_augment)
+        if config.perturb_augment > 0:
+            windows = perturb_windows(
+                windows, config.perturb_augment, config.perturb_scale, groups, low.astype(np.float32),
+                high.astype(np.float32), rng,
+            )  # fmt: skip
+        batch = torch.from_numpy(windows)
         reconstruction = network(batch)
         loss = torch.mean((reconstruction - batch) ** 2)
         if config.position_loss > 0:

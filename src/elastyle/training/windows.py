@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from elastyle.core.resample import interpolate_rows
-from elastyle.types import Float32Array
+from elastyle.types import Float32Array, IntArray
 
 
 def sample_windows(
@@ -46,6 +46,37 @@ def sample_windows(
     backwards = rng.random(count) < reverse_share
     windows[backwards] = windows[backwards, ::-1]
     return np.ascontiguousarray(windows.transpose(0, 2, 1))  # (B, C, W)
+
+
+def perturb_windows(
+    windows: Float32Array,
+    share: float,
+    scale: float,
+    groups: IntArray,
+    low: Float32Array,
+    high: Float32Array,
+    rng: np.random.Generator,
+) -> Float32Array:
+    """Windows (B, C, W) of normalised features with random per-joint offsets on a `share` of them: poses
+    the recorded clips never hold, within the ranges they do.
+
+    In a perturbed window each joint (the channels sharing a `groups` (C,) id: a joint's exp map, the
+    pelvis's sway and height) is moved with probability one half, by an offset that drifts linearly from
+    one draw to another over the window (normal, `scale` standard deviations of each channel), then every
+    channel is clipped to its recorded range [low, high] (C,). A new array; the others are copies.
+    """
+    windows = windows.copy()
+    count, channels, width = windows.shape
+    chosen = np.flatnonzero(rng.random(count) < share)
+    if len(chosen) == 0:
+        return windows
+    num_groups = int(groups.max()) + 1
+    moved = (rng.random((len(chosen), num_groups)) < 0.5)[:, groups]  # (K, C)
+    ends = rng.normal(0.0, scale, size=(2, len(chosen), channels)) * moved  # (2, K, C)
+    ramp = np.linspace(0.0, 1.0, width, dtype=np.float32)  # (W,)
+    offsets = ends[0, ..., None] * (1 - ramp) + ends[1, ..., None] * ramp  # (K, C, W)
+    windows[chosen] = np.clip(windows[chosen] + offsets, low[:, None], high[:, None])
+    return windows
 
 
 def draw_speed(rng: np.random.Generator, share: float, speed_range: tuple[float, float]) -> float:
