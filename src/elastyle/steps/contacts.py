@@ -15,7 +15,7 @@ from elastyle.core.body import Limbs, find_limbs, leg_length
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import lengths
 from elastyle.core.smoothing import frame_steps
-from elastyle.types import BoolArray, FloatArray
+from elastyle.types import BoolArray, FloatArray, IntArray
 
 TOE, HEEL = 0, 1  # a foot's two contact points, last axis of point contacts: the toe joint, the ankle joint
 GROUND_PERCENTILE = 5.0  # a foot joint's ground level: this percentile of its heights over the clip
@@ -42,6 +42,16 @@ def ground_level(motion: Motion, positions: FloatArray | None = None) -> float:
     return float(np.percentile(positions[:, toes, 1], GROUND_PERCENTILE, method=PERCENTILE_METHOD))
 
 
+def contact_points(limbs: Limbs) -> IntArray:
+    """(F, 2) each foot's contact joints: its toe (`TOE`) and its heel (`HEEL`, the ankle joint)."""
+    return np.stack([limbs.toes, limbs.ankles], axis=1)
+
+
+def _min_contact_frames(fps: float) -> int:
+    """Contacts and gaps shorter than `MIN_CONTACT_S`, in frames at `fps`, are dropped or filled."""
+    return max(1, int(np.ceil(MIN_CONTACT_S * fps)))
+
+
 def detect_contacts(motion: Motion, positions: FloatArray | None = None) -> BoolArray:
     """(T, F) True where foot f is planted (its toe or its heel), F = len(find_limbs(skeleton).toes).
 
@@ -49,7 +59,7 @@ def detect_contacts(motion: Motion, positions: FloatArray | None = None) -> Bool
     filled (a heel lifting a frame before the toe lands is one contact).
     """
     contacts: BoolArray = np.any(detect_point_contacts(motion, positions), axis=2)  # (T, F)
-    _drop_short_runs(contacts, max(1, int(np.ceil(MIN_CONTACT_S * motion.fps))), gaps_only=True)
+    _drop_short_runs(contacts, _min_contact_frames(motion.fps), gaps_only=True)
     return contacts
 
 
@@ -72,7 +82,7 @@ def detect_point_contacts(motion: Motion, positions: FloatArray | None = None) -
     if positions is None:
         positions = motion.positions(limbs.feet)  # (T, J, 3), the legs only
     leg = leg_length(motion.skeleton, limbs)
-    joints = np.stack([limbs.toes, limbs.ankles], axis=1)  # (F, 2) toe and heel of each foot
+    joints = contact_points(limbs)  # (F, 2) toe and heel of each foot
     heights = positions[:, joints, 1]  # (T, F, 2)
     heights = heights - np.percentile(
         heights, GROUND_PERCENTILE, axis=(0, 1), keepdims=True, method=PERCENTILE_METHOD
@@ -90,7 +100,7 @@ def detect_point_contacts(motion: Motion, positions: FloatArray | None = None) -
     enter = (heights < ENTER_HEIGHT_OF_LEG * leg) & ((speed < ENTER_SPEED_LEGS_S) | (behind & level))
     stay = (heights < EXIT_HEIGHT_OF_LEG * leg) & ((speed < EXIT_SPEED_LEGS_S) | behind)
     contacts = _hysteresis(enter, stay)  # (T, F, 2)
-    _drop_short_runs(contacts, max(1, int(np.ceil(MIN_CONTACT_S * motion.fps))))
+    _drop_short_runs(contacts, _min_contact_frames(motion.fps))
     return contacts
 
 
@@ -134,7 +144,7 @@ def pivots(positions: FloatArray, limbs: Limbs, leg: float) -> tuple[FloatArray,
     pivot, not `detect_point_contacts`' tracks: on a decoded clip whose feet slide, a sliding toe fails its
     track's speed test while the heel passes, and holding the heel there leaves the toe sliding.
     """
-    points = np.stack([positions[:, limbs.toes], positions[:, limbs.ankles]], axis=2)  # (T, F, 2, 3)
+    points = positions[:, contact_points(limbs)]  # (T, F, 2, 3)
     heights = points[..., 1] - np.percentile(
         points[..., 1], GROUND_PERCENTILE, axis=(0, 1), method=PERCENTILE_METHOD
     )  # (T, F, 2)

@@ -102,7 +102,7 @@ def train(
     longest = max(f.shape[0] for f in train_features)
     # per-joint perturbation: each joint's channels move together, within the recorded range
     groups = np.minimum(np.arange(spec.num_channels) // 3, spec.num_channels // 3 - 1)  # (C,) joint ids
-    low, high = (np.min(stacked, axis=0) - mean) / std, (np.max(stacked, axis=0) - mean) / std
+    low, high = (((bound - mean) / std).astype(np.float32) for bound in (stacked.min(0), stacked.max(0)))
 
     from elastyle.training.network import PosePositions, TorchAutoencoder
 
@@ -152,9 +152,8 @@ def train(
         windows = sample_windows(train_norm, window, config.batch_size, rng, speed, config.reverse_augment)
         if config.perturb_augment > 0:
             windows = perturb_windows(
-                windows, config.perturb_augment, config.perturb_scale, groups, low.astype(np.float32),
-                high.astype(np.float32), rng,
-            )  # fmt: skip
+                windows, config.perturb_augment, config.perturb_scale, groups, low, high, rng
+            )
         batch = torch.from_numpy(windows)
         reconstruction = network(batch)
         loss = torch.mean((reconstruction - batch) ** 2)

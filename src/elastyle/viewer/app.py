@@ -74,12 +74,12 @@ def _contacts(motion: Motion) -> dict[str, Any]:
     """Each foot's toe and heel (ankle) joints (F * 2,) and their planted frames (T * F * 2,) as 0/1, from
     `steps.contacts.detect_point_contacts`; none if no legs."""
     from elastyle.core.body import find_limbs
-    from elastyle.steps.contacts import detect_point_contacts
+    from elastyle.steps.contacts import contact_points, detect_point_contacts
 
     limbs = find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
         return {"contact_points": [], "contacts": []}
-    points = np.stack([limbs.toes, limbs.ankles], axis=1)  # (F, 2) toe, heel
+    points = contact_points(limbs)  # (F, 2) toe, heel
     contacts = detect_point_contacts(motion).astype(np.int8)  # (T, F, 2)
     return {"contact_points": points.ravel().tolist(), "contacts": contacts.ravel().tolist()}
 
