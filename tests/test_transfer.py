@@ -80,6 +80,33 @@ def test_elastic_takes_the_style_timing_and_rigid_does_not(
     assert fixed.num_frames == content.num_frames
 
 
+@pytest.mark.parametrize("pace", [0.6, 1.6])
+def test_a_style_far_slower_or_faster_than_the_content_still_sets_the_pace(
+    model, content: Motion, style_clip: Motion, pace: float
+) -> None:  # type: ignore[no-untyped-def]
+    # the style clip retimed to step at `pace` times the content's cadence: beyond the report's +-25 %
+    f_content = cadence_steps_s(content)
+    retimed = style_clip.resample(style_clip.fps * cadence_steps_s(style_clip) / (pace * f_content))
+    style = Motion(style_clip.skeleton, retimed.rotations, retimed.translations, style_clip.fps)
+    f_style = cadence_steps_s(style)
+    assert not 0.7 < f_style / f_content < 1.4
+    outputs = {
+        centre: transfer(content, style, TransferConfig(stretch_centre=centre), model=model).motion
+        for centre in ("tempo", "content")
+    }
+    errors = {
+        centre: timing_error(cadence_steps_s(out), f_content, f_style) for centre, out in outputs.items()
+    }
+    assert errors["tempo"] < 0.25 < errors["content"]
+
+
+def test_tempo_centred_stretches_surround_the_tempo() -> None:
+    config = TransferConfig()
+    np.testing.assert_array_equal(config.source_lengths(30, 30.0), np.arange(22, 39, 2))  # the report's range
+    centred = config.source_lengths(30, 30.0, tempo=1.5)
+    assert 34 <= centred.min() < centred.max() <= 56 and 45 in centred
+
+
 def test_plain_decoding_at_strength_zero_is_the_content_through_the_autoencoder(
     model, content: Motion, style_clip: Motion
 ) -> None:  # type: ignore[no-untyped-def]

@@ -21,6 +21,7 @@ from elastyle.types import IntArray
 METHODS = ("elastic", "rigid", "wct", "adain")
 PLACEMENTS = ("sequential", "fixed")
 TIMINGS = ("style", "content")
+STRETCH_CENTRES = ("tempo", "content")
 DECODINGS = ("residual", "plain")
 
 
@@ -56,6 +57,13 @@ class TransferConfig:
         0.25, "a content patch may be read from (1 - stretch) to (1 + stretch) times its length",
         low=0.0, high=1.0, high_open=True,
     )  # fmt: skip
+    stretch_centre: str = option(
+        "tempo",
+        "sequential placement: the tried stretches centre on the clip's tempo ratio, the median stretch of a "
+        "first search (so a style much faster or slower than the content is reached beyond --stretch); "
+        "content: on the content's own pace, the report's range",
+        STRETCH_CENTRES,
+    )
     stretch_step_s: float = option(
         4 / 60, "spacing of the tried patch lengths, seconds (the report's 4 frames at 60 fps; 0 = every frame)",
         low=0.0, high=10.0,
@@ -150,14 +158,16 @@ class TransferConfig:
         text = self.strength if isinstance(self.strength, str) else str(float(self.strength))
         return Schedule.parse(text, "strength")
 
-    def source_lengths(self, patch_frames: int, fps: float) -> IntArray:
-        """Candidate source lengths L' (frames) for a patch of L frames."""
+    def source_lengths(self, patch_frames: int, fps: float, tempo: float = 1.0) -> IntArray:
+        """Candidate source lengths L' (frames) for a patch of L frames: (1 - stretch) to (1 + stretch)
+        times tempo * L, in steps of `stretch_step_s` from tempo * L (the content's own pace at tempo 1)."""
         if self.method != "elastic" or self.stretch == 0:
             return np.array([patch_frames])
-        low = max(2, int(round((1 - self.stretch) * patch_frames)))
-        high = int(round((1 + self.stretch) * patch_frames))
+        centre = max(2, int(round(tempo * patch_frames)))
+        low = max(2, int(round((1 - self.stretch) * tempo * patch_frames)))
+        high = int(round((1 + self.stretch) * tempo * patch_frames))
         step = max(1, int(round(self.stretch_step_s * fps)))
-        lengths = set(range(patch_frames, low - 1, -step)) | set(range(patch_frames, high + 1, step))
+        lengths = set(range(centre, low - 1, -step)) | set(range(centre, high + 1, step))
         return np.array(sorted(lengths))
 
 

@@ -71,6 +71,7 @@ def explain(
         "placement": config.placement,
         "patch_s": config.patch_s,
         "stretch": config.stretch,
+        "stretch_centre": config.stretch_centre,
         "action_weight": config.action_weight,
         "fallback_below": config.fallback_below,
         "keep_action_above": config.keep_action_above,

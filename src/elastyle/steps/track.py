@@ -28,6 +28,7 @@ FALLBACK_RAMP = (
 )
 
 
+TEMPO_SEARCHES = 2  # searches about the clip's tempo after the first (each from the previous one's tempo)
 KEEP_RAMP = 0.15  # a part's share of the content's action rises from 0 to 1 over this much mismatch
 MISMATCH_FLOOR = 0.3  # legs (per second): what a part's mismatch is relative to, at the least
 
@@ -94,7 +95,16 @@ def style_track(
     white_content = content_stats.whiten(content_latents, config.whiten_floor)
     search = search_sequential if config.placement == "sequential" else search_fixed
     content_frames = match_frames(white_content, content_actions, config.action_weight)
-    patches, shifted = search(content_frames, windows, config.source_lengths(patch_frames, fps))
+    lengths = config.source_lengths(patch_frames, fps)
+    patches, shifted = search(content_frames, windows, lengths)
+    about_tempo = config.stretch_centre == "tempo" and config.placement == "sequential"
+    for _ in range(TEMPO_SEARCHES if about_tempo else 0):
+        # search again about the clip's tempo ratio, so a pace beyond the first range is reached
+        centred = config.source_lengths(patch_frames, fps, clip_tempo(patches, patch_frames))
+        if np.array_equal(centred, lengths):
+            break
+        lengths = centred
+        patches, shifted = search(content_frames, windows, lengths)
     # place and cross-fade: each grid time reads both sequences' style windows, weighted by a triangle
     position_a, weight_a, log_rate, similarity_a = _patch_sample(grid, patches, patch_frames)
     position_b, weight_b, _, similarity_b = _patch_sample(grid, shifted, patch_frames)
@@ -131,6 +141,12 @@ def style_track(
     # colour with the style's statistics
     coloured = library.stats.colour(white, config.whiten_floor)
     return StyleTrack(coloured, log_rate, patches, patch_frames, fallback, mismatch, keep)
+
+
+def clip_tempo(patches: list[Patch], patch_frames: int) -> float:
+    """The clip's tempo ratio: the median over patches of the content frames read per output frame, L' / L
+    (above 1 where the style moves faster than the content)."""
+    return float(np.exp(np.median(np.log([p.content_frames / patch_frames for p in patches]))))
 
 
 def part_mismatch(
