@@ -29,6 +29,13 @@ FALLBACK_RAMP = (
 
 
 TEMPO_SEARCHES = 2  # searches about the clip's tempo after the first (each from the previous one's tempo)
+# the tempo is read from patches whose legs' mismatch is below this: standing against stepping measures 0.69
+# to 0.75 (a gesture given a walk's style), stepping at another pace or gait 0.23 to 0.58 (a walk against
+# a walk retimed to 0.6 to 2 times its cadence, a walk against a run)
+TEMPO_MISMATCH = 0.65
+TEMPO_MOVE = (
+    0.25  # searched again only where the tempo lies over this share of --stretch from the range's centre
+)
 KEEP_RAMP = 0.15  # a part's share of the content's action rises from 0 to 1 over this much mismatch
 MISMATCH_FLOOR = 0.3  # legs (per second): what a part's mismatch is relative to, at the least
 
@@ -97,10 +104,23 @@ def style_track(
     content_frames = match_frames(white_content, content_actions, config.action_weight)
     lengths = config.source_lengths(patch_frames, fps)
     patches, shifted = search(content_frames, windows, lengths)
+    leg_columns = (part_columns or {}).get("legs", np.zeros(0, dtype=np.int64))
     about_tempo = config.stretch_centre == "tempo" and config.placement == "sequential"
+    centre = 1.0  # the tempo the tried stretches surround
     for _ in range(TEMPO_SEARCHES if about_tempo else 0):
-        # search again about the clip's tempo ratio, so a pace beyond the first range is reached
-        centred = config.source_lengths(patch_frames, fps, clip_tempo(patches, patch_frames))
+        # search again about the clip's tempo ratio, so a pace beyond the first range is reached; the
+        # tempo is read where the legs step as the matched windows' do (a walk's pace says nothing of a wave's)
+        alike = (
+            part_mismatch(content_actions, library.actions, patches, patch_frames, leg_columns)
+            < TEMPO_MISMATCH
+        )
+        if not np.any(alike):
+            break
+        tempo = clip_tempo([p for p, same in zip(patches, alike) if same], patch_frames)
+        if abs(tempo / centre - 1) <= TEMPO_MOVE * config.stretch:
+            break  # the range already surrounds the tempo
+        centre = tempo
+        centred = config.source_lengths(patch_frames, fps, tempo)
         if np.array_equal(centred, lengths):
             break
         lengths = centred
