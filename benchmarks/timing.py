@@ -13,7 +13,7 @@ from itertools import product
 from elastyle.eval.benchmark import benchmark_pairs, score_pairs
 from elastyle.io.dataset import default_data_path
 from elastyle.model.file import load_model
-from elastyle.steps.config import TransferConfig
+from elastyle.steps.config import STRETCH_CENTRES, TransferConfig
 
 
 def main() -> int:
@@ -24,7 +24,9 @@ def main() -> int:
     parser.add_argument("--patch-s", type=float, nargs="+", default=[1.0])
     parser.add_argument("--stretch", type=float, nargs="+", default=[0.25])
     parser.add_argument("--smooth-s", type=float, nargs="+", default=[TransferConfig().smooth_s])
-    parser.add_argument("--stretch-centre", nargs="+", default=[TransferConfig().stretch_centre])
+    parser.add_argument(
+        "--stretch-centre", nargs="+", choices=STRETCH_CENTRES, default=[TransferConfig().stretch_centre]
+    )
     parser.add_argument("--methods", nargs="+", default=["elastic", "rigid", "elastic-fixed", "wct", "adain"])
     args = parser.parse_args()
     if not args.data:

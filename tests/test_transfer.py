@@ -100,6 +100,18 @@ def test_a_style_far_slower_or_faster_than_the_content_still_sets_the_pace(
     assert errors["tempo"] < 0.25 < errors["content"]
 
 
+@pytest.mark.parametrize("patch_s", [0.2, 0.25])
+def test_short_patches_read_no_tempo(model, content: Motion, style_clip: Motion, patch_s: float) -> None:  # type: ignore[no-untyped-def]
+    # three or so tried lengths are too coarse to read a tempo from: the output is the report's range's
+    outputs = [
+        transfer(
+            content, style_clip, TransferConfig(patch_s=patch_s, stretch_centre=centre), model=model
+        ).motion
+        for centre in ("tempo", "content")
+    ]
+    np.testing.assert_array_equal(outputs[0].rotations, outputs[1].rotations)
+
+
 def test_tempo_centred_stretches_surround_the_tempo() -> None:
     config = TransferConfig()
     np.testing.assert_array_equal(config.source_lengths(30, 30.0), np.arange(22, 39, 2))  # the report's range

@@ -59,9 +59,10 @@ class TransferConfig:
     )  # fmt: skip
     stretch_centre: str = option(
         "tempo",
-        "sequential placement: the tried stretches centre on the clip's tempo ratio, the median stretch of a "
-        "first search (so a style much faster or slower than the content is reached beyond --stretch); "
-        "content: on the content's own pace, the report's range",
+        "sequential placement: the tried stretches centre on the clip's tempo, the median stretch of the "
+        "patches whose legs step alike in a first search, searched again up to twice (a style up to about "
+        "(1 + stretch)^3 times faster or (1 - stretch)^3 slower than the content is reached); content: on "
+        "the content's own pace, the report's range",
         STRETCH_CENTRES,
     )
     stretch_step_s: float = option(

@@ -29,13 +29,17 @@ FALLBACK_RAMP = (
 
 
 TEMPO_SEARCHES = 2  # searches about the clip's tempo after the first (each from the previous one's tempo)
-# the tempo is read from patches whose legs' mismatch is below this: standing against stepping measures 0.69
-# to 0.75 (a gesture given a walk's style), stepping at another pace or gait 0.23 to 0.58 (a walk against
-# a walk retimed to 0.6 to 2 times its cadence, a walk against a run)
+# the tempo is read from patches whose legs' mismatch is below this, whatever --keep-action-above says: it
+# separates standing from stepping (a gesture given a walk's style: 0.69 to 0.75) and keeps stepping at
+# another pace or gait (a walk against a walk retimed to 0.6 to 2 times its cadence, or a run: 0.23 to 0.58)
 TEMPO_MISMATCH = 0.65
 TEMPO_MOVE = (
-    0.25  # searched again only where the tempo lies over this share of --stretch from the range's centre
+    0.25  # searched again only where the tempo lies over this share of --stretch from the range's tempo
 )
+MIN_TEMPO_LENGTHS = (
+    5  # fewer tried lengths are too coarse to read a tempo from (the median jumps between ends)
+)
+MIN_TEMPO_PATCHES = 3  # patches needed to read a tempo
 KEEP_RAMP = 0.15  # a part's share of the content's action rises from 0 to 1 over this much mismatch
 MISMATCH_FLOOR = 0.3  # legs (per second): what a part's mismatch is relative to, at the least
 
@@ -106,24 +110,16 @@ def style_track(
     patches, shifted = search(content_frames, windows, lengths)
     leg_columns = (part_columns or {}).get("legs", np.zeros(0, dtype=np.int64))
     about_tempo = config.stretch_centre == "tempo" and config.placement == "sequential"
-    centre = 1.0  # the tempo the tried stretches surround
-    for _ in range(TEMPO_SEARCHES if about_tempo else 0):
-        # search again about the clip's tempo ratio, so a pace beyond the first range is reached; the
-        # tempo is read where the legs step as the matched windows' do (a walk's pace says nothing of a wave's)
-        alike = (
-            part_mismatch(content_actions, library.actions, patches, patch_frames, leg_columns)
-            < TEMPO_MISMATCH
-        )
-        if not np.any(alike):
-            break
-        tempo = clip_tempo([p for p, same in zip(patches, alike) if same], patch_frames)
-        if abs(tempo / centre - 1) <= TEMPO_MOVE * config.stretch:
-            break  # the range already surrounds the tempo
-        centre = tempo
+    range_tempo = 1.0  # the tempo the tried stretches surround
+    for _ in range(TEMPO_SEARCHES if about_tempo and len(lengths) >= MIN_TEMPO_LENGTHS else 0):
+        # search again about the clip's tempo, so a pace beyond the first range is reached
+        tempo = stepping_tempo(content_actions, library.actions, patches, patch_frames, leg_columns)
+        if tempo is None or abs(tempo / range_tempo - 1) <= TEMPO_MOVE * config.stretch:
+            break  # no tempo to read, or the range already surrounds it
         centred = config.source_lengths(patch_frames, fps, tempo)
         if np.array_equal(centred, lengths):
             break
-        lengths = centred
+        range_tempo, lengths = tempo, centred
         patches, shifted = search(content_frames, windows, lengths)
     # place and cross-fade: each grid time reads both sequences' style windows, weighted by a triangle
     position_a, weight_a, log_rate, similarity_a = _patch_sample(grid, patches, patch_frames)
@@ -163,10 +159,26 @@ def style_track(
     return StyleTrack(coloured, log_rate, patches, patch_frames, fallback, mismatch, keep)
 
 
-def clip_tempo(patches: list[Patch], patch_frames: int) -> float:
-    """The clip's tempo ratio: the median over patches of the content frames read per output frame, L' / L
-    (above 1 where the style moves faster than the content)."""
-    return float(np.exp(np.median(np.log([p.content_frames / patch_frames for p in patches]))))
+def stepping_tempo(
+    content_actions: FloatArray,
+    library_actions: FloatArray,
+    patches: list[Patch],
+    patch_frames: int,
+    leg_columns: IntArray,
+) -> float | None:
+    """The clip's tempo: the median over patches of the content frames read per output frame, L' / L (above
+    1 where the style moves faster than the content), over the patches that lie inside the content
+    (T frames of actions (T, A)) and whose legs act as their windows' do (legs' mismatch below
+    `TEMPO_MISMATCH`: a walk's pace says nothing of a wave's); None with fewer than `MIN_TEMPO_PATCHES`."""
+    mismatch = part_mismatch(content_actions, library_actions, patches, patch_frames, leg_columns)
+    stretches = [
+        p.content_frames / patch_frames
+        for p, legs in zip(patches, mismatch)
+        if legs < TEMPO_MISMATCH and p.content_start + p.content_frames <= len(content_actions)
+    ]
+    if len(stretches) < MIN_TEMPO_PATCHES:
+        return None
+    return float(np.exp(np.median(np.log(stretches))))
 
 
 def part_mismatch(
