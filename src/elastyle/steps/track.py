@@ -33,12 +33,10 @@ TEMPO_SEARCHES = 2  # searches about the clip's tempo after the first (each from
 # separates standing from stepping (a gesture given a walk's style: 0.69 to 0.75) and keeps stepping at
 # another pace or gait (a walk against a walk retimed to 0.6 to 2 times its cadence, or a run: 0.23 to 0.58)
 TEMPO_MISMATCH = 0.65
-TEMPO_MOVE = (
-    0.25  # searched again only where the tempo lies over this share of --stretch from the range's tempo
-)
-MIN_TEMPO_LENGTHS = (
-    5  # fewer tried lengths are too coarse to read a tempo from (the median jumps between ends)
-)
+# searched again only where the tempo lies over this share of --stretch from the range's tempo
+TEMPO_MOVE = 0.25
+# fewer tried lengths are too coarse to read a tempo from (the median jumps between the range's ends)
+MIN_TEMPO_LENGTHS = 5
 MIN_TEMPO_PATCHES = 3  # patches needed to read a tempo
 KEEP_RAMP = 0.15  # a part's share of the content's action rises from 0 to 1 over this much mismatch
 MISMATCH_FLOOR = 0.3  # legs (per second): what a part's mismatch is relative to, at the least
