@@ -144,3 +144,12 @@ def test_output_equal_to_input_is_refused(tmp_path: Path) -> None:
     result = run("convert", str(clip), "-o", str(clip), "--force")
     assert result.returncode == 1 and "would overwrite" in result.stderr
     assert clip.read_text() == THREE_CHANNEL_BVH
+
+
+def test_off_switches_say_they_turn_off(capsys: pytest.CaptureFixture[str]) -> None:
+    """A flag that turns a default-on step off says so, rather than describing the step as if it added it."""
+    with pytest.raises(SystemExit):
+        main(["transfer", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for flag in ("--no-mirror-style", "--no-cleanup"):
+        assert f"{flag} turn off what is on by default:" in text

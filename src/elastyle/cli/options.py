@@ -21,7 +21,9 @@ def add_config_flags(parser: argparse.ArgumentParser, config_type: type) -> None
         if isinstance(default, bool):
             name = f"--no-{flag}" if default else f"--{flag}"
             action = "store_false" if default else "store_true"
-            parser.add_argument(name, dest=spec.name, action=action, default=default, help=help_text)
+            # the help says what the field does; a --no-x flag turns that off
+            shown = f"turn off what is on by default: {help_text}" if default else help_text
+            parser.add_argument(name, dest=spec.name, action=action, default=default, help=shown)
             continue
         choices = spec.metadata.get("choices")
         kind = str if spec.metadata.get("text") or not isinstance(default, (int, float)) else type(default)
