@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from elastyle import mirror, read_bvh
+from elastyle import Motion, mirror, read_bvh, write_bvh
 from elastyle.cli import main
 from elastyle.io.dataset import ClipRef
 from tests.conftest import THREE_CHANNEL_BVH, clip_named
@@ -58,6 +58,8 @@ def test_transfer_writes_bvh_and_explain(walk: str, style: str, tmp_path: Path) 
     assert out.read_text().startswith("HIERARCHY")
     record = json.loads(explain.read_text())
     assert record["method"] == "elastic" and record["styles"][0]["patches"]
+    written = read_bvh(str(out))[0]
+    assert (record["output_frames"], record["output_fps"]) == (written.num_frames, written.fps)
 
 
 def test_transfer_batch_into_folder(
@@ -153,3 +155,30 @@ def test_off_switches_say_they_turn_off(capsys: pytest.CaptureFixture[str]) -> N
     text = " ".join(capsys.readouterr().out.split())
     for flag in ("--no-mirror-style", "--no-cleanup"):
         assert f"{flag} turn off what is on by default:" in text
+
+
+def test_eval_refuses_clips_of_another_skeleton(walk: str, style: str, tmp_path: Path) -> None:
+    """eval compares the output with its content joint by joint: another skeleton is a one-line error
+    naming the file, not an internal error or a meaningless bone error."""
+    other = tmp_path / "other.bvh"
+    other.write_text(THREE_CHANNEL_BVH)
+    for args, named in (
+        (["eval", str(other), "--content", walk, "--style", style], other),
+        (["eval", walk, "--content", str(other), "--style", style], walk),
+        (["eval", walk, "--content", walk, "--style", str(other)], other),
+    ):
+        result = run(*args)
+        assert result.returncode == 1 and result.stderr.strip().count("\n") == 0, result.stderr
+        assert f"{named}: skeleton differs from the content" in result.stderr
+
+
+def test_a_style_clip_too_short_for_a_patch_is_named(walk: str, tmp_path: Path) -> None:
+    clip = read_bvh(walk)[0]
+    short = tmp_path / "short.bvh"
+    write_bvh(short, Motion(clip.skeleton, clip.rotations[:3], clip.translations[:3], clip.fps))
+    out = tmp_path / "out.bvh"
+    result = run("transfer", walk, "--style", str(short), "-o", str(out))
+    assert result.returncode == 1 and not out.exists()
+    assert result.stderr.strip() == (
+        f"elastyle: error: {short}: too short for a patch (3 frame(s) at 30 fps at most; patches need at least 4)"
+    )

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from elastyle.core.motion import Motion
-from elastyle.errors import ElastyleError, OutputError
+from elastyle.errors import ElastyleError, OutputError, UsageError
 from elastyle.io.bvh_read import read_bvh
 from elastyle.io.dataset import ClipRef
 from elastyle.viewer.render import (
@@ -74,7 +74,7 @@ def test_tiny_clip_renders_and_refuses_to_overwrite(three_channel_bvh: Path, tmp
 
 def test_bad_outputs_are_refused_before_work(three_channel_bvh: Path, tmp_path: Path) -> None:
     motion, _ = read_bvh(three_channel_bvh)
-    with pytest.raises(OutputError, match=r"out\.avi: unknown video format"):
+    with pytest.raises(UsageError, match=r"out\.avi: unknown video format"):
         render_clips([motion], ["tiny.bvh"], tmp_path / "out.avi", progress=False)
     with pytest.raises(OutputError, match="does not exist"):
         render_clips([motion], ["tiny.bvh"], tmp_path / "missing" / "out.gif", progress=False)

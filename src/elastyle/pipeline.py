@@ -189,6 +189,8 @@ def transfer(
             {"parts": list(parse_parts(names, "--style-part")), **entry}
             for names, entry in zip((part_styles or {}).keys(), part_record["styles"])
         ]
+    record["output_frames"] = motion.num_frames  # as written, at the content's frame rate
+    record["output_fps"] = motion.fps
     record["content_reconstruction_cm"] = round(error_cm, 3)
     return TransferResult(motion, record)
 

@@ -30,11 +30,16 @@ def add_eval_commands(commands: Any) -> None:
     add_units_flag(evaluate)
     evaluate.add_argument("--out", help="folder for benchmark.json and benchmark.md")
     evaluate.add_argument("--json", action="store_true", help="print figures as JSON")
-    evaluate.add_argument("--force", action="store_true")
+    evaluate.add_argument(
+        "--force", action="store_true", help="overwrite benchmark.json and benchmark.md in --out"
+    )
     evaluate.set_defaults(run=run_eval)
 
     demo = commands.add_parser("demo", help="a neutral walk in three contrasting styles, with figures")
-    demo.add_argument("--data", help="the dataset zip or folder (default: $ELASTYLE_DATA or ../shared/data)")
+    demo.add_argument(
+        "--data",
+        help="the dataset zip or folder (default: $ELASTYLE_DATA, else ../shared/data/bandai-namco-2.zip)",
+    )
     demo.add_argument(
         "-o", "--output", default="elastyle-demo", help="folder to write (default elastyle-demo)"
     )
@@ -74,6 +79,9 @@ def run_eval(args: argparse.Namespace) -> int:
     output, content, style = (
         in_units(read_clip(path)[0], args.units) for path in (args.output, args.content, args.style)
     )
+    # the figures compare the three clips joint by joint: one skeleton, as a transfer keeps it
+    content.skeleton.check_same(output.skeleton, f"the content {args.content}", args.output)
+    content.skeleton.check_same(style.skeleton, f"the content {args.content}", args.style)
     figures = transfer_figures(output, content, style)
     note = no_legs_note(output.skeleton, args.output)
     if note is not None:

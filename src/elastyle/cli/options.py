@@ -39,7 +39,9 @@ def config_from_args(config_type: type, args: argparse.Namespace) -> Any:
 
 
 def _shown(value: Any) -> str:
-    return f"{value:.4g}" if isinstance(value, float) else str(value)
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return str(value) if value != "" else "none"
 
 
 def add_units_flag(parser: argparse.ArgumentParser) -> None:

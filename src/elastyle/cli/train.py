@@ -17,29 +17,42 @@ def add_train_commands(commands: Any) -> None:
     trainer.add_argument("-o", "--output", required=True, help="model file to write (.npz)")
     trainer.add_argument("--minutes", type=float, help="time budget")
     trainer.add_argument("--steps", type=int, help="step budget")
-    trainer.add_argument("--seed", type=int, default=0)
+    trainer.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     trainer.add_argument(
         "--resume", help="checkpoint to continue from (MODEL.ckpt is written as training goes)"
     )
-    trainer.add_argument("--batch-size", type=int, default=16)
-    trainer.add_argument("--lr", type=float, default=1e-4, help="Adam learning rate (report: 1e-4)")
-    trainer.add_argument("--lr-schedule", choices=("constant", "cosine"), default="constant")
-    trainer.add_argument("--window-s", type=float, default=4.0, help="training window length, seconds")
-    trainer.add_argument("--hidden", type=int, default=256)
-    trainer.add_argument("--latent", type=int, default=32)
-    trainer.add_argument("--kernel", type=int, default=15)
+    trainer.add_argument("--batch-size", type=int, default=16, help="windows per step (default 16)")
+    trainer.add_argument(
+        "--lr", type=float, default=1e-4, help="Adam learning rate (default 1e-4, the report's)"
+    )
+    trainer.add_argument(
+        "--lr-schedule", choices=("constant", "cosine"), default="constant",
+        help="constant, or cosine decay over the budget (default constant)",
+    )  # fmt: skip
+    trainer.add_argument(
+        "--window-s", type=float, default=4.0, help="training window length, seconds (default 4)"
+    )
+    trainer.add_argument("--hidden", type=int, default=256, help="hidden channels (default 256)")
+    trainer.add_argument(
+        "--latent", type=int, default=32,
+        help="latent channels, the search's width (default 32, the report's; the shipped model has 64)",
+    )  # fmt: skip
+    trainer.add_argument("--kernel", type=int, default=15, help="convolution width, frames (default 15)")
     trainer.add_argument("--untied", action="store_true", help="decoder with weights of its own")
     trainer.add_argument("--no-mirror", action="store_true", help="no mirrored clips as augmentation")
     trainer.add_argument(
-        "--reverse-augment", type=float, default=0.0, help="share of training windows played backwards"
+        "--reverse-augment",
+        type=float,
+        default=0.0,
+        help="share of training windows played backwards (default 0)",
     )
     trainer.add_argument(
         "--speed-augment", type=float, default=0.0,
-        help="share of batches played at a speed drawn from 0.5x to 2x",
+        help="share of batches played at a speed drawn from 0.5x to 2x (default 0)",
     )  # fmt: skip
     trainer.add_argument(
         "--perturb-augment", type=float, default=0.0,
-        help="share of training windows whose joints get random offsets within their recorded ranges",
+        help="share of training windows whose joints get random offsets within their recorded ranges (default 0)",
     )  # fmt: skip
     trainer.add_argument(
         "--perturb-scale", type=float, default=0.5,
@@ -53,7 +66,7 @@ def add_train_commands(commands: Any) -> None:
         "--position-loss",
         type=float,
         default=0.0,
-        help="weight of a forward-kinematics joint position and velocity loss (0 = the report's)",
+        help="weight of a forward-kinematics joint position and velocity loss (default 0, the report's)",
     )
     trainer.add_argument("--threads", type=int, help="torch CPU threads")
     trainer.add_argument("--no-progress", action="store_true")

@@ -119,7 +119,8 @@ def load_model(path: str | os.PathLike[str] | None = None) -> StyleModel:
         with np.load(path, allow_pickle=False) as archive:
             data = {key: archive[key] for key in archive.files}
     except (zipfile.BadZipFile, OSError, ValueError, EOFError) as error:
-        raise ModelError(f"{path}: not an elastyle model file (truncated or foreign: {error})") from None
+        kind = "not an .npz archive" if isinstance(error, ValueError) else f"truncated or foreign: {error}"
+        raise ModelError(f"{path}: not an elastyle model file ({kind})") from None
     if "format_version" not in data:
         raise ModelError(f"{path}: not an elastyle model file (no format_version)")
     version = int(data["format_version"])

@@ -105,7 +105,7 @@ class TransferConfig:
         "body parts performed as in the content (comma-separated: legs, spine, left-arm, right-arm, arms)",
     )
     smooth_s: float = option(
-        1 / 30, "Gaussian low-pass of the decoded motion, sigma in seconds (0: none; default one frame at 30 fps)",
+        1 / 30, "Gaussian low-pass of the decoded motion, sigma in seconds (0: none; the default is one frame at 30 fps)",
         low=0.0, high=10.0,
     )  # fmt: skip
     timing: str = option(

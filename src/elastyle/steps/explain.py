@@ -77,7 +77,7 @@ def explain(
         "keep_action_above": config.keep_action_above,
         "keep_part": config.keep_part,
         "model_fps": fps,
-        "output_frames": int(len(content_time)),
+        "model_rate_frames": int(len(content_time)),  # the output's timeline at model_fps
         "styles": styles,
         "notes": notes,
     }

@@ -94,8 +94,10 @@ def style_track(
     wanted = requested_patch_frames(config, fps)
     patch_frames = min(wanted, library.longest_clip)
     if patch_frames < MIN_PATCH_FRAMES:
+        names = ", ".join(dict.fromkeys(library.names))
         raise ClipTooShortError(
-            f"style clips are at most {library.longest_clip} frames; patches need {MIN_PATCH_FRAMES}"
+            f"{names}: too short for a patch ({library.longest_clip} frame(s) at {fps:g} fps at most; patches "
+            f"need at least {MIN_PATCH_FRAMES})"
         )
     if patch_frames < wanted:
         log.info("note: %s", shortened_patch_note(patch_frames, config, fps))

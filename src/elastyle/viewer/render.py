@@ -21,7 +21,7 @@ import numpy as np
 from elastyle.core.motion import Motion
 from elastyle.core.resample import interpolate_rows
 from elastyle.core.skeleton import Skeleton
-from elastyle.errors import ElastyleError, OutputError
+from elastyle.errors import ElastyleError, OutputError, UsageError
 from elastyle.io.files import check_output_path, write_bytes_atomic
 from elastyle.types import FloatArray, IntArray
 
@@ -135,7 +135,7 @@ def render_clips(
     target = check_output_path(output, force=force)
     suffix = target.suffix.lower()
     if suffix not in (".gif", ".mp4"):
-        raise OutputError(f"{target}: unknown video format {suffix or '(none)'}; use .gif or .mp4")
+        raise UsageError(f"{target}: unknown video format {suffix or '(none)'}; use .gif or .mp4")
     fastest = max(m.fps for m in motions)
     fps = float(fps) if fps is not None else (min(fastest, 30.0) if suffix == ".gif" else fastest)
     if not fps > 0:
