@@ -182,3 +182,14 @@ def test_a_style_clip_too_short_for_a_patch_is_named(walk: str, tmp_path: Path) 
     assert result.stderr.strip() == (
         f"elastyle: error: {short}: too short for a patch (3 frame(s) at 30 fps at most; patches need at least 4)"
     )
+
+
+def test_a_change_of_style_outside_the_clip_is_reported(walk: str, style: str, tmp_path: Path) -> None:
+    out = tmp_path / "out.bvh"
+    before = run("transfer", walk, "--style", style, "--then-style", style, "--at", "-3", "-o", str(out))
+    assert before.returncode == 2 and "--at is a time in the content, from 0 s" in before.stderr
+    after = run("transfer", walk, "--style", style, "--then-style", style, "--at", "100", "-o", str(out))
+    assert (
+        after.returncode == 0
+        and "starts at 100 s, after the clip's end (8.90 s): it does not show" in after.stderr
+    )

@@ -213,6 +213,8 @@ def _check_style_options(args: argparse.Namespace) -> None:
             raise UsageError(f"--{name} must be a finite number, got {value}")
     if args.over is not None and args.over <= 0:
         raise UsageError(f"--over must be positive, got {args.over:g} s")
+    if args.at is not None and args.at < 0:
+        raise UsageError(f"--at is a time in the content, from 0 s; got {args.at:g} s")
     if args.blend is not None and not 0 <= args.blend <= 1:
         raise UsageError(f"--blend must lie between 0 and 1, got {args.blend:g}")
     if args.jobs is not None and args.jobs < 1:
