@@ -193,3 +193,13 @@ def test_a_change_of_style_outside_the_clip_is_reported(walk: str, style: str, t
         after.returncode == 0
         and "starts at 100 s, after the clip's end (8.90 s): it does not show" in after.stderr
     )
+
+
+def test_a_missing_clip_inside_an_archive_is_no_such_file(walk: str, style: str, tmp_path: Path) -> None:
+    if ".zip" not in walk:
+        pytest.skip("the dataset is a folder here, not an archive")
+    missing = walk.replace("walk_normal_005", "walk_nothere")
+    result = run("transfer", missing, "--style", style, "-o", str(tmp_path / "out.bvh"))
+    assert result.returncode == 1 and result.stderr.strip().startswith(
+        f"elastyle: error: {missing}: no such file"
+    )

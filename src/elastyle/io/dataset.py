@@ -65,7 +65,9 @@ class ClipRef(NamedTuple):
             if problem is not None:
                 raise BvhError(self.name, problem)
             return archive.read(self.member or "")
-        except (KeyError, zipfile.BadZipFile, OSError) as error:
+        except KeyError:
+            raise BvhError(self.name, f"no such file in the archive {self.archive}") from None
+        except (zipfile.BadZipFile, OSError) as error:
             raise BvhError(self.name, f"cannot read: {error}") from None
 
 
