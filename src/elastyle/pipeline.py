@@ -103,12 +103,13 @@ def transfer(
     if working.num_frames < 2:
         raise ClipTooShortError(f"{content_name}: {content.num_frames} frame(s); a transfer needs at least 2")
     libraries = [as_library(model, style, style_names, config.mirror_style)]
-    if second_style is not None and _as_schedule(second_weight).times_s[0] >= content.duration_s:
-        log.warning(
-            "note: %s: the change to the second style starts at %g s, after the clip's end (%.2f s): it does "
-            "not show", content_name, _as_schedule(second_weight).times_s[0], content.duration_s,
-        )  # fmt: skip
     if second_style is not None:
+        change = _as_schedule(second_weight)
+        if change.times_s[0] >= content.duration_s and change.values[0] == 0:
+            log.warning(
+                "note: %s: the change to the second style starts at %g s, after the clip's end (%.2f s): it "
+                "does not show", content_name, change.times_s[0], content.duration_s,
+            )  # fmt: skip
         libraries.append(as_library(model, second_style, second_style_names, config.mirror_style))
     kept = part_joints(content.skeleton, config.kept_parts, content_name)  # (K,) joints kept as performed
     by_part = [
