@@ -11,10 +11,13 @@ import numpy as np
 import pytest
 
 from elastyle import ConfigError, Motion, read_bvh, transfer
+from elastyle.core.body import find_limbs, leg_length
 from elastyle.core.parts import body_parts
 from elastyle.eval.metrics import cadence_steps_s
 from elastyle.io.dataset import ClipRef
 from elastyle.model.file import load_model
+from elastyle.steps.arms import back_and_forth
+from elastyle.types import FloatArray
 from tests.conftest import clip_named
 
 pytestmark = pytest.mark.slow
@@ -143,3 +146,58 @@ def test_a_part_styled_by_another_clip_keeps_the_content_where_that_clip_acts_ot
     assert entry["parts"] == ["legs"] and {p["mode"] for p in entry["patches"]} == {"content"}
     with pytest.raises(ConfigError, match="two styles"):
         transfer(walk, proud, model=model, part_styles={"arms": wave, "left-arm": proud})
+
+
+def _hand_height_legs(motion: Motion, side: str) -> FloatArray:
+    """(T,) the hand's height above the pelvis, in leg lengths (hands from the skeleton, any naming)."""
+    limbs = find_limbs(motion.skeleton)
+    hand = int(limbs.hands[0 if side == "left" else 1])
+    positions = motion.positions()
+    return (positions[:, hand, 1] - positions[:, motion.skeleton.pelvis, 1]) / leg_length(
+        motion.skeleton, limbs
+    )
+
+
+def _back_and_forth(motion: Motion, side: str) -> float:
+    """The median share of the hand's path that comes back on itself within a second (`steps.arms`)."""
+    limbs = find_limbs(motion.skeleton)
+    hand = int(limbs.hands[0 if side == "left" else 1])
+    path = motion.positions()[:, hand] / leg_length(motion.skeleton, limbs)
+    return float(np.median(back_and_forth(path, np.zeros(1, dtype=np.int64), motion.fps)))
+
+
+def test_a_waving_hand_given_a_walks_style_stays_raised_and_waves(
+    model, clips: dict[str, Motion], dataset_clips: list[ClipRef]
+) -> None:  # type: ignore[no-untyped-def]
+    """The walk's windows hold the hands low and swing them: the waving arm keeps the content's action."""
+    wave = clip_named(dataset_clips, "dataset-2_wave-right-hand_normal_010").read()[0]
+    result = transfer(wave, clips["walk_masculine_010"], model=model, timing="content")
+    middle = slice(wave.num_frames // 4, 3 * wave.num_frames // 4)  # the hand is up throughout
+    raised = _hand_height_legs(wave, "right")[middle]
+    assert np.median(raised) > 0.5  # the content's hand is raised, over half a leg above the pelvis
+    out = _hand_height_legs(result.motion, "right")[middle]
+    assert np.median(np.abs(out - raised)) < 0.1
+    assert _back_and_forth(result.motion, "right") > 0.5  # still waving
+    patches = result.explain["styles"][0]["patches"]
+    offsets = [p["parts"]["right-arm"]["hand_offset"] for p in patches[2:-2]]
+    assert min(offsets) > 0.4, offsets  # the walk's hand is elsewhere, as the explain file records
+    swapped = transfer(wave, clips["walk_masculine_010"], model=model, timing="content", arm_offset_above=9.0,
+                       arm_rhythm_above=1.0)  # fmt: skip
+    assert np.median(_hand_height_legs(swapped.motion, "right")[middle]) < 0.3  # without it, the hand drops
+
+
+def test_a_raised_hand_given_a_waves_style_does_not_wave(model, dataset_clips: list[ClipRef]) -> None:  # type: ignore[no-untyped-def]
+    raise_up = clip_named(dataset_clips, "dataset-2_raise-up-right-hand_normal_060").read()[0]
+    wave = clip_named(dataset_clips, "dataset-2_wave-right-hand_active_020").read()[0]
+    assert _back_and_forth(wave, "right") > 0.5 > 0.2 > _back_and_forth(raise_up, "right")
+    out = transfer(raise_up, wave, model=model).motion
+    assert _back_and_forth(out, "right") < 0.2
+    swapped = transfer(raise_up, wave, model=model, arm_offset_above=9.0, arm_rhythm_above=1.0).motion
+    assert _back_and_forth(swapped, "right") > 0.3  # without the arms' keep, the wave's windows wave
+
+
+def test_the_arms_of_a_walk_given_a_walks_style_are_swapped(model, clips: dict[str, Motion]) -> None:  # type: ignore[no-untyped-def]
+    result = transfer(clips["walk_normal_005"], clips["walk_masculine_010"], model=model)
+    for patch in result.explain["styles"][0]["patches"]:
+        for arm in ("left-arm", "right-arm"):
+            assert patch["parts"][arm]["content_share"] < 0.01, patch

@@ -100,6 +100,21 @@ class TransferConfig:
         "a wave's style still walks); 2: never",
         low=0.0, high=2.0,
     )  # fmt: skip
+    arm_offset_above: float = option(
+        0.4,
+        "per arm: where the hand's mean place over a patch lies more than this (leg lengths) from the matched "
+        "style window's, the arm keeps the content's action (a raised hand given a walk's style stays raised), "
+        "eased in over 0.15 above it; 9: never",
+        low=0.0, high=9.0,
+    )  # fmt: skip
+    arm_rhythm_above: float = option(
+        0.28,
+        "per arm: where the share of the hand's path that comes back on itself within a second (a wave or a "
+        "swing: near 1; a raise or a hold: near 0) differs from the matched window's by more than this, the "
+        "arm keeps the content's action (a raise given a wave's style does not wave), eased in over 0.15 "
+        "above it; 1: never",
+        low=0.0, high=1.0,
+    )  # fmt: skip
     keep_part: str = option(
         "",
         "body parts performed as in the content (comma-separated: legs, spine, left-arm, right-arm, arms)",

@@ -15,6 +15,7 @@ import numpy as np
 from elastyle.core.resample import interpolate_rows
 from elastyle.core.smoothing import smooth
 from elastyle.errors import ClipTooShortError
+from elastyle.steps.arms import ArmMismatch, arm_mismatch, back_and_forth
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.library import StyleLibrary, match_frames
 from elastyle.steps.search import Patch, sample_windows, search_fixed, search_sequential
@@ -46,8 +47,9 @@ class StyleTrack(NamedTuple):
     """latents (G, Z) coloured, on the content-time grid; log_rate (G,); the matched patches (empty for
     the statistics-only methods) and their length L in frames; fallback (G,), 0 to 1, the share of the
     style's statistics alone where no style window matched well (1 for the statistics-only methods);
-    mismatch: per body part, each patch's action mismatch (P,) (`part_mismatch`); keep: per body part
-    (G,), 0 to 1, the share of the content's own action where the matched windows do another."""
+    mismatch: per body part, each patch's action mismatch (P,) (`part_mismatch`); arms: per arm, each
+    patch's hand offset and rhythm difference (`steps.arms`); keep: per body part (G,), 0 to 1, the share
+    of the content's own action where the matched windows do another."""
 
     latents: FloatArray
     log_rate: FloatArray
@@ -55,6 +57,7 @@ class StyleTrack(NamedTuple):
     patch_frames: int
     fallback: FloatArray
     mismatch: dict[str, FloatArray]
+    arms: dict[str, ArmMismatch]
     keep: dict[str, FloatArray]
 
 
@@ -90,7 +93,7 @@ def style_track(
         else:
             styled = adain(content_latents, [content_latents], [library.latents])
         still = np.zeros_like(grid)
-        return StyleTrack(interpolate_rows(styled, grid), still, [], 0, np.ones_like(grid), {}, {})
+        return StyleTrack(interpolate_rows(styled, grid), still, [], 0, np.ones_like(grid), {}, {}, {})
     wanted = requested_patch_frames(config, fps)
     patch_frames = min(wanted, library.longest_clip)
     if patch_frames < MIN_PATCH_FRAMES:
@@ -133,7 +136,8 @@ def style_track(
     # fall back to the style's statistics alone where the best window is a poor match (another action)
     similarity = (weight_a * similarity_a + weight_b * similarity_b) / total
     step = float(grid[1] - grid[0]) if len(grid) > 1 else 1.0
-    fallback = fallback_share(similarity, config.fallback_below, 0.25 * patch_frames / step)
+    ease = 0.25 * patch_frames / step  # shares ease in and out over a quarter patch (grid steps)
+    fallback = fallback_share(similarity, config.fallback_below, ease)
     if np.any(fallback > 0):
         own = interpolate_rows(white_content, grid)  # the content's own whitened latents (G, Z)
         white = (1 - fallback)[:, None] * white + fallback[:, None] * own
@@ -151,12 +155,34 @@ def style_track(
         )
         legs = (weight_a * _patch_values(grid, patches, mismatch["legs"])
                 + weight_b * _patch_values(grid, shifted, shifted_mismatch)) / total  # fmt: skip
-        share = keep_share(legs, config.keep_action_above, 0.25 * patch_frames / step)
+        share = keep_share(legs, config.keep_action_above, ease)
         keep = {"legs": share, "spine": share}
         log_rate = (1 - share) * log_rate
+    # each arm: where its hand is elsewhere or goes back and forth where the window's does not (or the
+    # other way round), it keeps the content's action; the timeline stays the style's
+    arms: dict[str, ArmMismatch] = {}
+    for part, columns in (part_columns or {}).items():
+        if part == "legs":
+            continue
+        content_hand, library_hand = content_actions[:, columns[:3]], library.actions[:, columns[:3]]
+        content_rhythm = back_and_forth(content_hand, np.zeros(1, dtype=np.int64), fps)
+        library_rhythm = back_and_forth(library_hand, library.clip_starts, fps)
+        arms[part], shifted_arm = (
+            arm_mismatch(content_hand, content_rhythm, library_hand, library_rhythm, sequence, patch_frames)
+            for sequence in (patches, shifted)
+        )
+        offset, rhythm = (
+            (weight_a * _patch_values(grid, patches, arms[part][k])
+             + weight_b * _patch_values(grid, shifted, shifted_arm[k])) / total
+            for k in range(2)
+        )  # fmt: skip
+        keep[part] = np.maximum(
+            keep_share(offset, config.arm_offset_above, ease),
+            keep_share(rhythm, config.arm_rhythm_above, ease),
+        )
     # colour with the style's statistics
     coloured = library.stats.colour(white, config.whiten_floor)
-    return StyleTrack(coloured, log_rate, patches, patch_frames, fallback, mismatch, keep)
+    return StyleTrack(coloured, log_rate, patches, patch_frames, fallback, mismatch, arms, keep)
 
 
 def stepping_tempo(

@@ -1,0 +1,73 @@
+"""Whether an arm does what its matched style windows do: where its hand is, and whether it goes back and forth.
+
+The legs tell a walk from a wave by their travel and steps (`steps.track.part_mismatch`); an arm needs two
+other measures, both in leg lengths, so any unit and skeleton size compare alike:
+
+    hand offset        the distance between the hand's mean place (relative to the pelvis, heading frame)
+                       over the content's span and over the style window: a raised hand against a lowered
+                       one is about 1 leg; two manners of the same action differ by a few tenths
+    rhythm difference  the difference of the share of the hand's path that comes back on itself within about
+                       a second (`back_and_forth`): a wave or an arm swing is near 1, raising, lowering
+                       or holding near 0, whatever the motion's size, so a large wave and a small one agree
+
+Where either is over its threshold (`TransferConfig.arm_offset_above`, `arm_rhythm_above`), the arm keeps
+the content's action (`steps.keep`): a waving hand given a walk's style still waves, a raised hand given a
+wave's style does not start to wave.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from scipy.ndimage import uniform_filter1d
+
+from elastyle.steps.search import Patch, sample_windows
+from elastyle.types import FloatArray, IntArray
+
+RHYTHM_WINDOW_S = 1.0  # the back-and-forth is measured over this long: one arm swing, several waves
+PATH_FLOOR = 0.2  # legs per window: a hand moving less than this reads as still (share near 0)
+
+
+class ArmMismatch(NamedTuple):
+    """Per patch (P,): the hand offset (legs) and the rhythm difference (0 to 1) of one arm."""
+
+    hand_offset: FloatArray
+    rhythm_difference: FloatArray
+
+
+def back_and_forth(hand: FloatArray, clip_starts: IntArray, fps: float) -> FloatArray:
+    """(T,) per frame, the share (0 to 1) of the hand's path over `RHYTHM_WINDOW_S` about it that comes back
+    on itself: (path - net displacement) / (path + `PATH_FLOOR`). hand: (T, 3) positions in legs, clips
+    end to end from clip_starts (K,) (a window never reaches into the next clip)."""
+    width = max(int(round(RHYTHM_WINDOW_S * fps)), 2)
+    share = np.zeros(len(hand))
+    for start, end in zip(clip_starts, np.append(clip_starts[1:], len(hand))):
+        if end - start < 2:
+            continue
+        steps = np.diff(hand[start:end], axis=0, prepend=hand[start : start + 1])  # (n, 3) legs per frame
+        path = uniform_filter1d(np.linalg.norm(steps, axis=1), width, mode="nearest") * width
+        net = np.linalg.norm(uniform_filter1d(steps, width, axis=0, mode="nearest") * width, axis=1)
+        share[start:end] = (path - net) / (path + PATH_FLOOR)
+    return share
+
+
+def arm_mismatch(
+    content_hand: FloatArray,
+    content_rhythm: FloatArray,
+    library_hand: FloatArray,
+    library_rhythm: FloatArray,
+    patches: list[Patch],
+    patch_frames: int,
+) -> ArmMismatch:
+    """How differently one arm acts in each patch's content span and its style window: hands (T, 3) and
+    (N, 3) in legs, their `back_and_forth` (T,) and (N,); windows of `patch_frames`."""
+    if not patches:
+        return ArmMismatch(np.zeros(0), np.zeros(0))
+    starts, frames = np.array([(p.content_start, p.content_frames) for p in patches]).T
+    content = np.concatenate([content_hand, content_rhythm[:, None]], axis=1)
+    spans = sample_windows(content, starts, frames, patch_frames).mean(axis=1)  # (P, 4)
+    rows = np.array([p.style_start for p in patches])[:, None] + np.arange(patch_frames)  # (P, L)
+    rows = np.minimum(rows, len(library_hand) - 1)
+    style = np.concatenate([library_hand[rows], library_rhythm[rows][..., None]], axis=2).mean(axis=1)
+    return ArmMismatch(np.linalg.norm(spans[:, :3] - style[:, :3], axis=1), np.abs(spans[:, 3] - style[:, 3]))
