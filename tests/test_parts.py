@@ -201,3 +201,25 @@ def test_the_arms_of_a_walk_given_a_walks_style_are_swapped(model, clips: dict[s
     for patch in result.explain["styles"][0]["patches"]:
         for arm in ("left-arm", "right-arm"):
             assert patch["parts"][arm]["content_share"] < 0.01, patch
+
+
+def test_a_turning_walk_given_a_straight_walks_style_keeps_its_turning_steps(
+    model, dataset_clips: list[ClipRef]
+) -> None:  # type: ignore[no-untyped-def]
+    """Where the walk turns and the matched windows walk straight, the legs step as the content's do."""
+    turn = clip_named(dataset_clips, "dataset-2_walk-turn-left_normal_020").read()[0]
+    straight = clip_named(dataset_clips, "dataset-2_walk_youthful_010").read()[0]
+    result = transfer(turn, straight, model=model, timing="content")
+    patches = result.explain["styles"][0]["patches"]
+    turning = [p for p in patches if p["parts"]["legs"]["turning_difference"] > 0.6]
+    assert turning and all(p["parts"]["legs"]["content_share"] > 0.5 for p in turning), patches
+    assert patches[0]["parts"]["legs"]["content_share"] < 0.1  # the straight start swaps
+    swapped = transfer(turn, straight, model=model, timing="content", legs_turning_above=9.0)
+    legs = body_parts(turn.skeleton)["legs"]
+    start = round(turning[0]["content_start_s"] * turn.fps)
+    span = slice(start, start + round(turn.fps))  # the first turning patch's second
+
+    def distance(out: Motion) -> float:
+        return float(np.abs(out.rotations[span][:, legs] - turn.rotations[span][:, legs]).mean())
+
+    assert distance(result.motion) < 0.7 * distance(swapped.motion)

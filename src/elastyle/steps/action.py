@@ -27,6 +27,9 @@ from elastyle.core.smoothing import frame_steps, smooth
 from elastyle.steps.contacts import GROUND_PERCENTILE, PERCENTILE_METHOD
 from elastyle.types import FloatArray, IntArray
 
+TURNING_SMOOTH_S = (
+    0.5  # sustained turning: the yaw rate low-passed with this sigma, so steps' sway does not count
+)
 SMOOTH_S = 0.1  # velocities are low-passed over about this long (sigma 0.4 of it), so noise does not count
 
 
@@ -65,3 +68,12 @@ def part_channels(skeleton: Skeleton) -> dict[str, IntArray]:
             if hand in joints:
                 columns[name] = [3 + 3 * h, 4 + 3 * h, 5 + 3 * h, 3 + 3 * num_hands + h]
     return {name: np.array(cols, dtype=np.int64) for name, cols in columns.items()}
+
+
+def sustained_turning(actions: FloatArray, clip_starts: IntArray, fps: float) -> FloatArray:
+    """(T,) the turning rate (rad/s) of `action_channels` (T, A) low-passed over `TURNING_SMOOTH_S`, clip by
+    clip for clips end to end from clip_starts (K,): a walk along a curve, not a step's sway."""
+    turning = np.zeros(len(actions))
+    for start, end in zip(clip_starts, np.append(clip_starts[1:], len(actions))):
+        turning[start:end] = smooth(actions[start:end, 2], TURNING_SMOOTH_S * fps)
+    return turning

@@ -22,7 +22,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from elastyle.steps.search import Patch, sample_windows
+from elastyle.steps.search import Patch, patch_means
 from elastyle.types import FloatArray, IntArray
 
 RHYTHM_WINDOW_S = 1.0  # the back-and-forth is measured over this long: one arm swing, several waves
@@ -62,12 +62,7 @@ def arm_mismatch(
 ) -> ArmMismatch:
     """How differently one arm acts in each patch's content span and its style window: hands (T, 3) and
     (N, 3) in legs, their `back_and_forth` (T,) and (N,); windows of `patch_frames`."""
-    if not patches:
-        return ArmMismatch(np.zeros(0), np.zeros(0))
-    starts, frames = np.array([(p.content_start, p.content_frames) for p in patches]).T
     content = np.concatenate([content_hand, content_rhythm[:, None]], axis=1)
-    spans = sample_windows(content, starts, frames, patch_frames).mean(axis=1)  # (P, 4)
-    rows = np.array([p.style_start for p in patches])[:, None] + np.arange(patch_frames)  # (P, L)
-    rows = np.minimum(rows, len(library_hand) - 1)
-    style = np.concatenate([library_hand[rows], library_rhythm[rows][..., None]], axis=2).mean(axis=1)
+    library = np.concatenate([library_hand, library_rhythm[:, None]], axis=1)
+    spans, style = patch_means(content, library, patches, patch_frames)  # (P, 4) each
     return ArmMismatch(np.linalg.norm(spans[:, :3] - style[:, :3], axis=1), np.abs(spans[:, 3] - style[:, 3]))

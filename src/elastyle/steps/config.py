@@ -100,6 +100,13 @@ class TransferConfig:
         "a wave's style still walks); 2: never",
         low=0.0, high=2.0,
     )  # fmt: skip
+    legs_turning_above: float = option(
+        0.5,
+        "per body part: where the legs' sustained turning (yaw rate low-passed over 0.5 s) differs from the "
+        "matched style windows' by more than this (rad/s), the legs and spine keep the content's action and "
+        "pace, eased in over 0.15 above it (a turning walk given a straight walk's style still turns); 9: never",
+        low=0.0, high=9.0,
+    )  # fmt: skip
     arm_offset_above: float = option(
         0.4,
         "per arm: where the hand's mean place over a patch lies more than this (leg lengths) from the matched "

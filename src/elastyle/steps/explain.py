@@ -23,8 +23,8 @@ def explain(
 ) -> dict[str, Any]:
     """Per output patch: its style clip (mirrored or not), start frame, stretch factor, similarity, times,
     and how it was used (mode: swap; statistics where the fallback took over; content where the legs and
-    spine keep the content's action; blend between them), with per body part the action mismatch (each
-    arm's hand offset and rhythm difference too) and the share of the content kept; content_time (T_out,)
+    spine keep the content's action; blend between them), with per body part the action mismatch (the legs'
+    turning difference, each arm's hand offset and rhythm difference too) and the share of the content kept; content_time (T_out,)
     is the content frame of each output frame."""
     styles = []
     notes: list[str] = []  # automatic adjustments, as printed
@@ -45,9 +45,8 @@ def explain(
                 }
                 for part, mismatch in track.mismatch.items()
             }
-            for part, arm in track.arms.items():
-                parts[part]["hand_offset"] = round(float(arm.hand_offset[index]), 3)
-                parts[part]["rhythm_difference"] = round(float(arm.rhythm_difference[index]), 3)
+            for part, measures in track.measures.items():
+                parts[part] |= {name: round(float(values[index]), 3) for name, values in measures.items()}
             start_out = float(np.searchsorted(content_time, patch.content_start)) / fps
             rows.append(
                 {
@@ -79,6 +78,7 @@ def explain(
         "action_weight": config.action_weight,
         "fallback_below": config.fallback_below,
         "keep_action_above": config.keep_action_above,
+        "legs_turning_above": config.legs_turning_above,
         "arm_offset_above": config.arm_offset_above,
         "arm_rhythm_above": config.arm_rhythm_above,
         "keep_part": config.keep_part,

@@ -47,6 +47,19 @@ def sample_windows(
     return interpolate_rows(latents, positions.ravel()).reshape(*positions.shape, -1)  # (Q, count, Z)
 
 
+def patch_means(
+    content: FloatArray, library: FloatArray, patches: list[Patch], patch_frames: int
+) -> tuple[FloatArray, FloatArray]:
+    """Each patch's mean of per-frame values over its content span, content (T, K), and over its style
+    window of `patch_frames`, library (N, K): two (P, K) arrays."""
+    if not patches:
+        return np.zeros((0, content.shape[1])), np.zeros((0, library.shape[1]))
+    starts, frames = np.array([(p.content_start, p.content_frames) for p in patches]).T
+    spans = sample_windows(content, starts, frames, patch_frames).mean(axis=1)  # (P, K)
+    rows = np.array([p.style_start for p in patches])[:, None] + np.arange(patch_frames)  # (P, L)
+    return spans, library[np.minimum(rows, len(library) - 1)].mean(axis=1)
+
+
 class StyleWindows:
     """Every L-frame window of a whitened style library (stride 1), for cosine similarity.
 

@@ -15,10 +15,11 @@ import numpy as np
 from elastyle.core.resample import interpolate_rows
 from elastyle.core.smoothing import smooth
 from elastyle.errors import ClipTooShortError
-from elastyle.steps.arms import ArmMismatch, arm_mismatch, back_and_forth
+from elastyle.steps.action import sustained_turning
+from elastyle.steps.arms import arm_mismatch, back_and_forth
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.library import StyleLibrary, match_frames
-from elastyle.steps.search import Patch, sample_windows, search_fixed, search_sequential
+from elastyle.steps.search import Patch, patch_means, sample_windows, search_fixed, search_sequential
 from elastyle.steps.whiten import LatentStats, adain
 from elastyle.types import FloatArray, IntArray
 
@@ -47,8 +48,9 @@ class StyleTrack(NamedTuple):
     """latents (G, Z) coloured, on the content-time grid; log_rate (G,); the matched patches (empty for
     the statistics-only methods) and their length L in frames; fallback (G,), 0 to 1, the share of the
     style's statistics alone where no style window matched well (1 for the statistics-only methods);
-    mismatch: per body part, each patch's action mismatch (P,) (`part_mismatch`); arms: per arm, each
-    patch's hand offset and rhythm difference (`steps.arms`); keep: per body part (G,), 0 to 1, the share
+    mismatch: per body part, each patch's action mismatch (P,) (`part_mismatch`); measures: per body part, each
+    patch's other measures of what it does (the legs' turning difference, rad/s; each arm's hand offset and
+    rhythm difference, `steps.arms`); keep: per body part (G,), 0 to 1, the share
     of the content's own action where the matched windows do another."""
 
     latents: FloatArray
@@ -57,7 +59,7 @@ class StyleTrack(NamedTuple):
     patch_frames: int
     fallback: FloatArray
     mismatch: dict[str, FloatArray]
-    arms: dict[str, ArmMismatch]
+    measures: dict[str, dict[str, FloatArray]]
     keep: dict[str, FloatArray]
 
 
@@ -148,41 +150,54 @@ def style_track(
         part: part_mismatch(content_actions, library.actions, patches, patch_frames, columns)
         for part, columns in (part_columns or {}).items()
     }
+    measures: dict[str, dict[str, FloatArray]] = {}  # per part, each measure's value per patch (P,)
     keep: dict[str, FloatArray] = {}
+
+    def on_grid(values: FloatArray, shifted_values: FloatArray) -> FloatArray:
+        """(G,) per-patch values of both sequences (P,), (P - 1,), cross-faded as the latents are."""
+        return (weight_a * _patch_values(grid, patches, values)
+                + weight_b * _patch_values(grid, shifted, shifted_values)) / total  # fmt: skip
+
     if "legs" in mismatch:
         shifted_mismatch = part_mismatch(
             content_actions, library.actions, shifted, patch_frames, (part_columns or {})["legs"]
         )
-        legs = (weight_a * _patch_values(grid, patches, mismatch["legs"])
-                + weight_b * _patch_values(grid, shifted, shifted_mismatch)) / total  # fmt: skip
-        share = keep_share(legs, config.keep_action_above, ease)
+        # a turning walk matched against straight windows keeps its turn, and the other way round
+        content_turning = sustained_turning(content_actions, np.zeros(1, dtype=np.int64), fps)[:, None]
+        library_turning = sustained_turning(library.actions, library.clip_starts, fps)[:, None]
+        turning = [
+            np.abs(np.subtract(*patch_means(content_turning, library_turning, sequence, patch_frames)))[:, 0]
+            for sequence in (patches, shifted)
+        ]
+        measures["legs"] = {"turning_difference": turning[0]}
+        share = np.maximum(
+            keep_share(on_grid(mismatch["legs"], shifted_mismatch), config.keep_action_above, ease),
+            keep_share(on_grid(*turning), config.legs_turning_above, ease),
+        )
         keep = {"legs": share, "spine": share}
         log_rate = (1 - share) * log_rate
     # each arm: where its hand is elsewhere or goes back and forth where the window's does not (or the
     # other way round), it keeps the content's action; the timeline stays the style's
-    arms: dict[str, ArmMismatch] = {}
     for part, columns in (part_columns or {}).items():
         if part == "legs":
             continue
         content_hand, library_hand = content_actions[:, columns[:3]], library.actions[:, columns[:3]]
         content_rhythm = back_and_forth(content_hand, np.zeros(1, dtype=np.int64), fps)
         library_rhythm = back_and_forth(library_hand, library.clip_starts, fps)
-        arms[part], shifted_arm = (
+        arm, shifted_arm = (
             arm_mismatch(content_hand, content_rhythm, library_hand, library_rhythm, sequence, patch_frames)
             for sequence in (patches, shifted)
         )
-        offset, rhythm = (
-            (weight_a * _patch_values(grid, patches, arms[part][k])
-             + weight_b * _patch_values(grid, shifted, shifted_arm[k])) / total
-            for k in range(2)
-        )  # fmt: skip
+        measures[part] = arm._asdict()
         keep[part] = np.maximum(
-            keep_share(offset, config.arm_offset_above, ease),
-            keep_share(rhythm, config.arm_rhythm_above, ease),
+            keep_share(on_grid(arm.hand_offset, shifted_arm.hand_offset), config.arm_offset_above, ease),
+            keep_share(
+                on_grid(arm.rhythm_difference, shifted_arm.rhythm_difference), config.arm_rhythm_above, ease
+            ),
         )
     # colour with the style's statistics
     coloured = library.stats.colour(white, config.whiten_floor)
-    return StyleTrack(coloured, log_rate, patches, patch_frames, fallback, mismatch, arms, keep)
+    return StyleTrack(coloured, log_rate, patches, patch_frames, fallback, mismatch, measures, keep)
 
 
 def stepping_tempo(
