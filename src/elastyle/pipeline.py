@@ -178,8 +178,11 @@ def transfer(
         # clean up: plant the feet as far as the style acts
         if config.cleanup:
             motion = blend_by_strength(motion, _clean_up(motion, config), strength_out)
-    # body parts that keep the content's action: kept ones throughout, the others where the style does another
+    # body parts that keep the content's action: kept ones throughout, the others where the style does
+    # another, as far as the strength goes (plain decoding at strength 0 stays the model's reading)
     keep = keep_weights(tracks, shares, part_tracks, content.skeleton, grid, content_time, positions, kept)
+    automatic = np.setdiff1d(np.arange(content.skeleton.num_joints), kept)
+    keep[:, automatic] *= np.clip(strength_out, 0.0, 1.0)[:, None]  # kept as far as the style acts
     if np.any(keep > 0):
         content_at = frames_of(content, content_frames)
         reference = content_at if base is None else frames_of(base, positions)
