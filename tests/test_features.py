@@ -97,6 +97,20 @@ def test_resample_keeps_duration_and_poses(walk_clip) -> None:  # type: ignore[n
     np.testing.assert_allclose(back.positions(), motion.positions(), atol=1e-4)
 
 
+def test_moving_sum_matches_scipy() -> None:
+    from scipy.ndimage import uniform_filter1d
+
+    from elastyle.core.smoothing import moving_sum
+
+    values = np.random.default_rng(0).normal(size=(50, 4, 3))
+    for width in (1, 2, 7, 30, 80):
+        np.testing.assert_allclose(
+            moving_sum(values, width),
+            width * uniform_filter1d(values, width, axis=0, mode="nearest"),
+            atol=1e-10,
+        )
+
+
 def test_smoothing_matches_scipy() -> None:
     from scipy.ndimage import gaussian_filter1d
 

@@ -27,9 +27,8 @@ from elastyle.core.smoothing import frame_steps, smooth
 from elastyle.steps.contacts import GROUND_PERCENTILE, PERCENTILE_METHOD
 from elastyle.types import FloatArray, IntArray
 
-TURNING_SMOOTH_S = (
-    0.5  # sustained turning: the yaw rate low-passed with this sigma, so steps' sway does not count
-)
+# sustained turning: the yaw rate low-passed with this sigma (seconds), so a step's sway does not count
+TURNING_SMOOTH_S = 0.5
 SMOOTH_S = 0.1  # velocities are low-passed over about this long (sigma 0.4 of it), so noise does not count
 
 
@@ -59,7 +58,7 @@ def action_channels(motion: Motion) -> FloatArray:
 
 def part_channels(skeleton: Skeleton) -> dict[str, IntArray]:
     """The columns of `action_channels` that say what each body part does: the legs' travel and feet,
-    each arm's hand (position and speed); the spine has none of its own."""
+    each arm's hand (position x, y, z, then speed); the spine has none of its own."""
     limbs = find_limbs(skeleton)
     num_hands = len(limbs.hands)
     columns = {"legs": [0, 1, 2, *range(3 + 4 * num_hands, 3 + 4 * num_hands + len(limbs.ankles))]}

@@ -20,9 +20,9 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from scipy.ndimage import uniform_filter1d
 
-from elastyle.steps.search import Patch, patch_means
+from elastyle.core.smoothing import moving_sum
+from elastyle.steps.search import Patch, mean_gap
 from elastyle.types import FloatArray, IntArray
 
 RHYTHM_WINDOW_S = 1.0  # the back-and-forth is measured over this long: one arm swing, several waves
@@ -46,8 +46,8 @@ def back_and_forth(hand: FloatArray, clip_starts: IntArray, fps: float) -> Float
         if end - start < 2:
             continue
         steps = np.diff(hand[start:end], axis=0, prepend=hand[start : start + 1])  # (n, 3) legs per frame
-        path = uniform_filter1d(np.linalg.norm(steps, axis=1), width, mode="nearest") * width
-        net = np.linalg.norm(uniform_filter1d(steps, width, axis=0, mode="nearest") * width, axis=1)
+        path = moving_sum(np.linalg.norm(steps, axis=1), width)
+        net = np.linalg.norm(moving_sum(steps, width), axis=1)
         share[start:end] = (path - net) / (path + PATH_FLOOR)
     return share
 
@@ -62,7 +62,7 @@ def arm_mismatch(
 ) -> ArmMismatch:
     """How differently one arm acts in each patch's content span and its style window: hands (T, 3) and
     (N, 3) in legs, their `back_and_forth` (T,) and (N,); windows of `patch_frames`."""
-    content = np.concatenate([content_hand, content_rhythm[:, None]], axis=1)
-    library = np.concatenate([library_hand, library_rhythm[:, None]], axis=1)
-    spans, style = patch_means(content, library, patches, patch_frames)  # (P, 4) each
-    return ArmMismatch(np.linalg.norm(spans[:, :3] - style[:, :3], axis=1), np.abs(spans[:, 3] - style[:, 3]))
+    return ArmMismatch(
+        mean_gap(content_hand, library_hand, patches, patch_frames),
+        mean_gap(content_rhythm[:, None], library_rhythm[:, None], patches, patch_frames),
+    )

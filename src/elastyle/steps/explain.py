@@ -23,9 +23,9 @@ def explain(
 ) -> dict[str, Any]:
     """Per output patch: its style clip (mirrored or not), start frame, stretch factor, similarity, times,
     and how it was used (mode: swap; statistics where the fallback took over; content where the legs and
-    spine keep the content's action; blend between them), with per body part the action mismatch (the legs'
-    turning difference, each arm's hand offset and rhythm difference too) and the share of the content kept; content_time (T_out,)
-    is the content frame of each output frame."""
+    spine keep the content's action; blend between them), with per body part the action mismatch (the
+    legs' turning difference, each arm's hand offset and rhythm difference too) and the share of the
+    content kept; content_time (T_out,) is the content frame of each output frame."""
     styles = []
     notes: list[str] = []  # automatic adjustments, as printed
     for track, library in zip(tracks, libraries):

@@ -47,17 +47,25 @@ def sample_windows(
     return interpolate_rows(latents, positions.ravel()).reshape(*positions.shape, -1)  # (Q, count, Z)
 
 
-def patch_means(
-    content: FloatArray, library: FloatArray, patches: list[Patch], patch_frames: int
+def patch_windows(
+    content: FloatArray, library: FloatArray, patches: list[Patch], patch_frames: int, columns: IntArray
 ) -> tuple[FloatArray, FloatArray]:
-    """Each patch's mean of per-frame values over its content span, content (T, K), and over its style
-    window of `patch_frames`, library (N, K): two (P, K) arrays."""
+    """Per-frame values columns (K,) of each patch's content span, stretched to `patch_frames` L, and of
+    its style window: content (T, A) and library (N, A) give two (P, L, K) arrays."""
     if not patches:
-        return np.zeros((0, content.shape[1])), np.zeros((0, library.shape[1]))
+        return np.zeros((0, patch_frames, len(columns))), np.zeros((0, patch_frames, len(columns)))
     starts, frames = np.array([(p.content_start, p.content_frames) for p in patches]).T
-    spans = sample_windows(content, starts, frames, patch_frames).mean(axis=1)  # (P, K)
+    spans = sample_windows(content[:, columns], starts, frames, patch_frames)  # (P, L, K)
     rows = np.array([p.style_start for p in patches])[:, None] + np.arange(patch_frames)  # (P, L)
-    return spans, library[np.minimum(rows, len(library) - 1)].mean(axis=1)
+    return spans, library[np.minimum(rows, len(library) - 1)][:, :, columns]
+
+
+def mean_gap(content: FloatArray, library: FloatArray, patches: list[Patch], patch_frames: int) -> FloatArray:
+    """(P,) per patch, the distance between the mean of per-frame values over its content span, content
+    (T, K), and over its style window, library (N, K) (for K = 1, the absolute difference)."""
+    columns = np.arange(content.shape[1])
+    spans, windows = patch_windows(content, library, patches, patch_frames, columns)  # (P, L, K) each
+    return np.linalg.norm(spans.mean(axis=1) - windows.mean(axis=1), axis=1)
 
 
 class StyleWindows:

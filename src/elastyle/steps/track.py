@@ -19,7 +19,7 @@ from elastyle.steps.action import sustained_turning
 from elastyle.steps.arms import arm_mismatch, back_and_forth
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.library import StyleLibrary, match_frames
-from elastyle.steps.search import Patch, patch_means, sample_windows, search_fixed, search_sequential
+from elastyle.steps.search import Patch, mean_gap, patch_windows, search_fixed, search_sequential
 from elastyle.steps.whiten import LatentStats, adain
 from elastyle.types import FloatArray, IntArray
 
@@ -48,10 +48,10 @@ class StyleTrack(NamedTuple):
     """latents (G, Z) coloured, on the content-time grid; log_rate (G,); the matched patches (empty for
     the statistics-only methods) and their length L in frames; fallback (G,), 0 to 1, the share of the
     style's statistics alone where no style window matched well (1 for the statistics-only methods);
-    mismatch: per body part, each patch's action mismatch (P,) (`part_mismatch`); measures: per body part, each
-    patch's other measures of what it does (the legs' turning difference, rad/s; each arm's hand offset and
-    rhythm difference, `steps.arms`); keep: per body part (G,), 0 to 1, the share
-    of the content's own action where the matched windows do another."""
+    mismatch: per body part, each patch's action mismatch (P,) (`part_mismatch`); measures: per body
+    part, each patch's other measures of what it does (the legs' turning difference, rad/s; each arm's hand
+    offset and rhythm difference, `steps.arms`); keep: per body part (G,), 0 to 1, the share of the
+    content's own action where the matched windows do another."""
 
     latents: FloatArray
     log_rate: FloatArray
@@ -166,7 +166,7 @@ def style_track(
         content_turning = sustained_turning(content_actions, np.zeros(1, dtype=np.int64), fps)[:, None]
         library_turning = sustained_turning(library.actions, library.clip_starts, fps)[:, None]
         turning = [
-            np.abs(np.subtract(*patch_means(content_turning, library_turning, sequence, patch_frames)))[:, 0]
+            mean_gap(content_turning, library_turning, sequence, patch_frames)
             for sequence in (patches, shifted)
         ]
         measures["legs"] = {"turning_difference": turning[0]}
@@ -234,10 +234,7 @@ def part_mismatch(
     their RMS in both (at least `MISMATCH_FLOOR`). 0: the same action; 1: as different as they are large."""
     if not patches or not len(columns):
         return np.zeros(len(patches))
-    starts, frames = np.array([(p.content_start, p.content_frames) for p in patches]).T
-    content = sample_windows(content_actions[:, columns], starts, frames, patch_frames)  # (P, L, K)
-    rows = np.array([p.style_start for p in patches])[:, None] + np.arange(patch_frames)  # (P, L)
-    style = library_actions[np.minimum(rows, len(library_actions) - 1)][:, :, columns]  # (P, L, K)
+    content, style = patch_windows(content_actions, library_actions, patches, patch_frames, columns)
     difference = np.sqrt(np.mean((content - style) ** 2, axis=(1, 2)))
     size = np.sqrt(np.mean(content**2, axis=(1, 2)) + np.mean(style**2, axis=(1, 2)))
     return difference / (size + MISMATCH_FLOOR)
