@@ -18,6 +18,7 @@ for variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[variable] = "1"
 
 import argparse  # noqa: E402
+import logging  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
@@ -159,6 +160,9 @@ def main() -> int:
         help="a TransferConfig field for every transfer timed, e.g. decode=plain",
     )  # fmt: skip
     args = parser.parse_args()
+    # the cases' contents are dataset walks end to end: their seams trip the out-of-depth warning, which
+    # would otherwise print on every timed transfer
+    logging.getLogger("elastyle").setLevel(logging.ERROR)
     global OPTIONS
     OPTIONS = TransferConfig.of(None, **dict(_option(text) for text in args.option))
     model = load_model(args.model)

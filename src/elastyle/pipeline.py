@@ -55,7 +55,6 @@ from elastyle.steps.library import StyleLibrary, as_library
 from elastyle.steps.schedule import Schedule
 from elastyle.steps.timeline import content_grid, mix_tracks, on_output_frames, output_content_times
 from elastyle.steps.track import style_track
-from elastyle.types import FloatArray
 
 StyleInput = Motion | Sequence[Motion] | StyleLibrary
 log = logging.getLogger(__name__)
@@ -164,17 +163,19 @@ def transfer(
     positions, content_frames = output_frames(
         content_time, fps, content.fps, content.num_frames, config.timing
     )
-    base = None  # the model's reading of the content on the output's timeline (residual decoding)
     strength_out = config.strength_schedule.at(content_frames / content.fps)  # (N,)
+    # each clip read once at the output's frames: the decoded styled clip, the content, and for residual
+    # decoding the model's reading of the content on the same timeline
+    styled_at, content_at = frames_of(styled, positions), frames_of(content, content_frames)
+    base_at = None
     if config.decode == "plain":
-        motion = _plain_output(styled, content, positions, config)
+        motion = _plain_output(styled_at, content, config)
     else:
         base = decode_plain(
             model, on_output_frames(content_on_grid, grid, content_time), root_out, config.smooth_s
         )
-        motion = compose_residual(
-            styled, base, content, positions, content_frames, strength_out, config.residual_smooth_s
-        )
+        base_at = frames_of(base, positions)
+        motion = compose_residual(styled_at, base_at, content_at, strength_out, config.residual_smooth_s)
         # clean up: plant the feet as far as the style acts
         if config.cleanup:
             motion = blend_by_strength(motion, _clean_up(motion, config), strength_out)
@@ -184,9 +185,8 @@ def transfer(
     automatic = np.setdiff1d(np.arange(content.skeleton.num_joints), kept)
     keep[:, automatic] *= np.clip(strength_out, 0.0, 1.0)[:, None]  # kept as far as the style acts
     if np.any(keep > 0):
-        content_at = frames_of(content, content_frames)
-        reference = content_at if base is None else frames_of(base, positions)
-        target = keep_target(content_at, frames_of(styled, positions), reference, keep, kept, strength_out)
+        reference = content_at if base_at is None else base_at
+        target = keep_target(content_at, styled_at, reference, keep, kept, strength_out)
         motion = blend_by_strength(motion, target, keep)
     _check_finite(motion, "foot clean-up" if config.cleanup else "decoding", content_name)
     record = explain(tracks, libraries, content_time, fps, config)
@@ -204,13 +204,12 @@ def transfer(
     return TransferResult(motion, record)
 
 
-def _plain_output(decoded: Motion, content: Motion, positions: FloatArray, config: TransferConfig) -> Motion:
-    """The report's output: the decoded clip (model rate) read at the output's frames on the content's
-    frame rate (positions (N,), as residual decoding reads; on the content's clock with `timing` content),
-    on the content's own skeleton (its offsets and End Sites, so the output drops into the content's rig),
-    cleaned up."""
-    sampled = decoded.sample(positions)
-    motion = Motion(content.skeleton, sampled.rotations, sampled.translations, content.fps)
+def _plain_output(decoded_at: Motion, content: Motion, config: TransferConfig) -> Motion:
+    """The report's output: the decoded clip read at the output's frames on the content's frame rate
+    (`frames_of` at their positions, as residual decoding reads; on the content's clock with `timing`
+    content), on the content's own skeleton (its offsets and End Sites, so the output drops into the
+    content's rig), cleaned up."""
+    motion = Motion(content.skeleton, decoded_at.rotations, decoded_at.translations, content.fps)
     return _clean_up(motion, config) if config.cleanup else motion
 
 

@@ -58,26 +58,18 @@ def output_frames(
 
 
 def compose_residual(
-    styled: Motion,
-    base: Motion,
-    content: Motion,
-    positions: FloatArray,
-    content_frames: FloatArray,
-    strength: FloatArray,
-    residual_smooth_s: float,
+    styled_at: Motion, base_at: Motion, content_at: Motion, strength: FloatArray, residual_smooth_s: float
 ) -> Motion:
     """The residual output (N frames at the content's rate): see the module docstring.
 
-    styled, base: (T_out,) model-rate clips; positions (N,): their frames to read; content_frames (N,): the
-    content's frames to read; strength (N,) in [0, 1]: how far E is low-passed.
+    styled_at, base_at: the decoded clips read at the output's N frames (`frames_of` at their positions);
+    content_at: the content read at its N frames; strength (N,) in [0, 1]: how far E is low-passed.
     """
-    styled_at, base_at = frames_of(styled, positions), frames_of(base, positions)
-    content_at = frames_of(content, content_frames)
     error_rotations = continuous_log(
         canonical_log(quat_multiply(to_quat(-base_at.rotations), to_quat(content_at.rotations)))
     )  # (N, J, 3)
     error_translations = content_at.translations - base_at.translations  # (N, J, 3)
-    sigma = residual_smooth_s * content.fps
+    sigma = residual_smooth_s * content_at.fps
     keep = (1 - strength)[:, None, None]  # the raw error at strength 0, its low-pass at 1
     low_rotations = smooth(error_rotations, sigma)
     low_translations = smooth(error_translations, sigma)
@@ -89,7 +81,7 @@ def compose_residual(
     exact = strength <= 0
     rotations[exact] = content_at.rotations[exact]
     translations[exact] = content_at.translations[exact]
-    return Motion(content.skeleton, rotations, translations, content.fps)
+    return Motion(content_at.skeleton, rotations, translations, content_at.fps)
 
 
 def frames_of(motion: Motion, frames: FloatArray) -> Motion:
