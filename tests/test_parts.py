@@ -90,11 +90,30 @@ def test_a_walk_given_a_runs_style_still_walks(model, clips: dict[str, Motion]) 
     assert np.abs(out.rotations[:, arm] - walk.rotations[: out.num_frames, arm]).max() > 0.1
 
 
+def test_legs_that_keep_the_walk_take_the_runs_statistics(model, clips: dict[str, Motion]) -> None:  # type: ignore[no-untyped-def]
+    """Where the legs keep the walk because the windows run, they take a share of the run's statistics: they
+    move away from the content's own legs as that share grows, and still walk at the walk's pace."""
+    walk, run = clips["walk_normal_005"], clips["run_feminine_015"]
+    legs = body_parts(walk.skeleton)["legs"]
+    outputs = {share: transfer(walk, run, model=model, kept_statistics=share) for share in (0.0, 0.3, 0.6)}
+    bare = outputs[0.0].motion
+    assert np.abs(bare.rotations[:, legs] - walk.rotations[: bare.num_frames, legs]).max() < 0.05
+    moved = [
+        np.abs(outputs[s].motion.rotations[:, legs] - bare.rotations[:, legs]).mean() for s in (0.3, 0.6)
+    ]
+    assert 0.002 < moved[0] < moved[1], moved  # radians
+    coloured = outputs[0.3]
+    assert cadence_steps_s(coloured.motion) == pytest.approx(cadence_steps_s(walk), rel=0.1)
+    shares = [p["parts"]["legs"]["statistics_share"] for p in coloured.explain["styles"][0]["patches"]]
+    assert max(shares) == pytest.approx(0.3, abs=0.01), shares
+
+
 def test_a_walk_given_a_walks_style_swaps_everywhere(model, clips: dict[str, Motion]) -> None:  # type: ignore[no-untyped-def]
     result = transfer(clips["walk_normal_005"], clips["walk_masculine_010"], model=model)
     patches = result.explain["styles"][0]["patches"]
     assert {p["mode"] for p in patches} == {"swap"}
     assert max(p["parts"]["legs"]["mismatch"] for p in patches) < 0.35
+    assert {p["parts"]["legs"]["statistics_share"] for p in patches} == {0.0}  # no statistics: it swaps
 
 
 def test_keep_part_and_style_part_on_the_command_line(tmp_path: Path, dataset_clips: list[ClipRef]) -> None:

@@ -37,6 +37,7 @@ from elastyle.core.resample import interpolate_rows
 from elastyle.core.threads import one_blas_thread
 from elastyle.errors import ClipTooShortError, ConfigError, ResultError
 from elastyle.model.depth import depth_warning, reconstruction_error_cm
+from elastyle.model.features import RootPath
 from elastyle.model.file import StyleModel, load_model
 from elastyle.steps.action import action_channels, part_channels
 from elastyle.steps.cleanup import adjust_root_speed, clean_feet
@@ -50,11 +51,12 @@ from elastyle.steps.decode import (
     output_frames,
 )
 from elastyle.steps.explain import explain
-from elastyle.steps.keep import keep_target, keep_weights
+from elastyle.steps.keep import keep_target, keep_weights, statistics_weights
 from elastyle.steps.library import StyleLibrary, as_library
 from elastyle.steps.schedule import Schedule
 from elastyle.steps.timeline import content_grid, mix_tracks, on_output_frames, output_content_times
 from elastyle.steps.track import style_track
+from elastyle.types import FloatArray
 
 StyleInput = Motion | Sequence[Motion] | StyleLibrary
 log = logging.getLogger(__name__)
@@ -148,15 +150,13 @@ def transfer(
     content_time = output_content_times(grid, log_rate)  # (T_out,) content frames
     # decode on the output's timeline, the root path read at the same content times
     root_out = root.sample(content_time)
-    styled = decode_plain(model, on_output_frames(latents, grid, content_time), root_out, config.smooth_s)
+    styled = _decoded(model, latents, grid, content_time, root_out, config)
     # parts styled by another library: their own track, decoded on the same timeline, joint by joint
     part_tracks = []  # (joints, track) of each part styled by another library
     for joints, library in by_part:
         track = style_track(content_latents, actions, library, grid, config, fps, columns)
         part_latents, _ = mix_tracks(content_on_grid, strength, [track], [np.ones_like(grid)])
-        part = decode_plain(
-            model, on_output_frames(part_latents, grid, content_time), root_out, config.smooth_s
-        )
+        part = _decoded(model, part_latents, grid, content_time, root_out, config)
         styled = styled.with_joints(part, joints)
         part_tracks.append((joints, track))
     _check_finite(styled, "decoding", content_name)
@@ -168,17 +168,15 @@ def transfer(
     # decoding the model's reading of the content on the same timeline
     styled_at, content_at = frames_of(styled, positions), frames_of(content, content_frames)
     base_at = None
-    if config.decode == "plain":
-        motion = _plain_output(styled_at, content, config)
+    if config.decode == "plain":  # the report's output: the decoded clip, on the content's own skeleton
+        motion = Motion(content.skeleton, styled_at.rotations, styled_at.translations, content.fps)
+        clean_share = np.ones_like(strength_out)  # the report's clean-up, whatever the strength
     else:
-        base = decode_plain(
-            model, on_output_frames(content_on_grid, grid, content_time), root_out, config.smooth_s
-        )
-        base_at = frames_of(base, positions)
+        base_at = frames_of(_decoded(model, content_on_grid, grid, content_time, root_out, config), positions)
         motion = compose_residual(styled_at, base_at, content_at, strength_out, config.residual_smooth_s)
-        # clean up: plant the feet as far as the style acts
-        if config.cleanup:
-            motion = blend_by_strength(motion, _clean_up(motion, config), strength_out)
+        clean_share = strength_out  # the feet planted as far as the style acts
+    if config.cleanup:
+        motion = blend_by_strength(motion, _clean_up(motion, config), clean_share)
     # body parts that keep the content's action: kept ones throughout, the others where the style does
     # another, as far as the strength goes (plain decoding at strength 0 stays the model's reading)
     keep = keep_weights(tracks, shares, part_tracks, content.skeleton, grid, content_time, positions, kept)
@@ -186,8 +184,27 @@ def transfer(
     keep[:, automatic] *= np.clip(strength_out, 0.0, 1.0)[:, None]  # kept as far as the style acts
     if np.any(keep > 0):
         reference = content_at if base_at is None else base_at
-        target = keep_target(content_at, styled_at, reference, keep, kept, strength_out)
+        colour = config.kept_statistics * statistics_weights(
+            tracks, shares, content.skeleton, grid, content_time, positions, np.union1d(kept, styled_joints)
+        )  # (N, J) the style's statistics on legs that keep the content's action where the style does another
+        coloured_at = None
+        if np.any(colour > 0):
+            statistics = TransferConfig.of(config, method="wct")
+            coloured_tracks = [
+                style_track(content_latents, actions, s, grid, statistics, fps) for s in libraries
+            ]
+            coloured, _ = mix_tracks(content_on_grid, strength, coloured_tracks, shares)
+            coloured_at = frames_of(
+                _decoded(model, coloured, grid, content_time, root_out, config), positions
+            )
+            if base_at is None:  # the statistics' change is to the model's reading
+                base = _decoded(model, content_on_grid, grid, content_time, root_out, config)
+                reference = frames_of(base, positions)
+        target = keep_target(content_at, styled_at, reference, keep, kept, strength_out, coloured_at, colour)
         motion = blend_by_strength(motion, target, keep)
+        if coloured_at is not None and config.cleanup:  # the coloured legs' feet planted too
+            motion = blend_by_strength(motion, _clean_up(motion, config), clean_share)
+            motion = motion.with_joints(content_at, kept, translations=True)  # kept parts stay the content's
     _check_finite(motion, "foot clean-up" if config.cleanup else "decoding", content_name)
     record = explain(tracks, libraries, content_time, fps, config)
     if part_tracks:
@@ -204,13 +221,17 @@ def transfer(
     return TransferResult(motion, record)
 
 
-def _plain_output(decoded_at: Motion, content: Motion, config: TransferConfig) -> Motion:
-    """The report's output: the decoded clip read at the output's frames on the content's frame rate
-    (`frames_of` at their positions, as residual decoding reads; on the content's clock with `timing`
-    content), on the content's own skeleton (its offsets and End Sites, so the output drops into the
-    content's rig), cleaned up."""
-    motion = Motion(content.skeleton, decoded_at.rotations, decoded_at.translations, content.fps)
-    return _clean_up(motion, config) if config.cleanup else motion
+def _decoded(
+    model: StyleModel,
+    latents: FloatArray,
+    grid: FloatArray,
+    content_time: FloatArray,
+    root: RootPath,
+    config: TransferConfig,
+) -> Motion:
+    """Latents (G, Z) on the content-time grid, decoded on the output's timeline (content_time (T_out,)) on
+    the root path read at the same times."""
+    return decode_plain(model, on_output_frames(latents, grid, content_time), root, config.smooth_s)
 
 
 def _clean_up(motion: Motion, config: TransferConfig) -> Motion:

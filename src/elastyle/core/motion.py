@@ -67,12 +67,16 @@ class Motion:
         """World joint positions (T, J, 3) in file units (only `joints` and their ancestors when given)."""
         return self.world(joints)[1]
 
-    def with_joints(self, other: Motion, joints: IntArray) -> Motion:
+    def with_joints(self, other: Motion, joints: IntArray, translations: bool = False) -> Motion:
         """This clip with the rotations of `joints` (K,) taken from `other` (the same skeleton and frames);
-        translations stay this clip's (the root's path, the bones' lengths)."""
+        their translations too if asked, else this clip's (the root's path, the bones' lengths)."""
         rotations = self.rotations.copy()
         rotations[:, joints] = other.rotations[:, joints]
-        return Motion(self.skeleton, rotations, self.translations, self.fps)
+        moved = self.translations
+        if translations:
+            moved = moved.copy()
+            moved[:, joints] = other.translations[:, joints]
+        return Motion(self.skeleton, rotations, moved, self.fps)
 
     def sample(self, frame_times: FloatArray, fps: float | None = None) -> Motion:
         """The clip at fractional frame indices (N,): slerp for rotations, linear for translations."""

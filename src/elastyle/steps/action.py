@@ -29,6 +29,7 @@ from elastyle.types import FloatArray, IntArray
 
 # sustained turning: the yaw rate low-passed with this sigma (seconds), so a step's sway does not count
 TURNING_SMOOTH_S = 0.5
+TURNING_COLUMN = 2  # the turning rate's column in `action_channels` (after forward and sideways travel)
 SMOOTH_S = 0.1  # velocities are low-passed over about this long (sigma 0.4 of it), so noise does not count
 
 
@@ -74,5 +75,5 @@ def sustained_turning(actions: FloatArray, clip_starts: IntArray, fps: float) ->
     clip for clips end to end from clip_starts (K,): a walk along a curve, not a step's sway."""
     turning = np.zeros(len(actions))
     for start, end in zip(clip_starts, np.append(clip_starts[1:], len(actions))):
-        turning[start:end] = smooth(actions[start:end, 2], TURNING_SMOOTH_S * fps)
+        turning[start:end] = smooth(actions[start:end, TURNING_COLUMN], TURNING_SMOOTH_S * fps)
     return turning

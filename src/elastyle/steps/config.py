@@ -107,6 +107,14 @@ class TransferConfig:
         "pace, eased in over 0.15 above it (a turning walk given a straight walk's style still turns); 9: never",
         low=0.0, high=9.0,
     )  # fmt: skip
+    kept_statistics: float = option(
+        0.3,
+        "where the legs keep the content's action because the matched style windows perform another (their "
+        "travel and steps differ, not only their turning: a walk given a run's or a wave's style), the share of "
+        "the style's statistics (the report's colouring of the content's latents) they take on top of it; "
+        "0: the content's own legs",
+        low=0.0, high=1.0,
+    )  # fmt: skip
     arm_offset_above: float = option(
         0.4,
         "per arm: where the hand's mean place over a patch lies more than this (leg lengths) from the matched "

@@ -24,8 +24,9 @@ def explain(
     """Per output patch: its style clip (mirrored or not), start frame, stretch factor, similarity, times,
     and how it was used (mode: swap; statistics where the fallback took over; content where the legs and
     spine keep the content's action; blend between them), with per body part the action mismatch (the
-    legs' turning difference, each arm's hand offset and rhythm difference too) and the share of the
-    content kept; content_time (T_out,) is the content frame of each output frame."""
+    legs' turning difference and gait mismatch, each arm's hand offset and rhythm difference too), the share
+    of the content kept and, for the legs, the share of the style's statistics on it; content_time
+    (T_out,) is the content frame of each output frame."""
     styles = []
     notes: list[str] = []  # automatic adjustments, as printed
     for track, library in zip(tracks, libraries):
@@ -43,6 +44,15 @@ def explain(
                     "mismatch": round(float(mismatch[index]), 3),
                     "content_share": round(_mean(track.keep[part][span]) if part in track.keep else 0.0, 3),
                 }
+                | (
+                    {
+                        "statistics_share": round(
+                            config.kept_statistics * _mean(track.other_action[part][span]), 3
+                        )
+                    }
+                    if part in track.other_action
+                    else {}
+                )
                 for part, mismatch in track.mismatch.items()
             }
             for part, measures in track.measures.items():
@@ -79,6 +89,7 @@ def explain(
         "fallback_below": config.fallback_below,
         "keep_action_above": config.keep_action_above,
         "legs_turning_above": config.legs_turning_above,
+        "kept_statistics": config.kept_statistics,
         "arm_offset_above": config.arm_offset_above,
         "arm_rhythm_above": config.arm_rhythm_above,
         "keep_part": config.keep_part,

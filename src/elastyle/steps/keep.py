@@ -6,8 +6,12 @@ Per output frame and joint, a share k in [0, 1] of the content's own motion: 1 a
 elsewhere (the legs and the spine, where the legs' travel and steps differ from the matched windows').
 Where the spine keeps the content's action it still takes the style's posture: the mean, over the frames
 it keeps within about ten seconds (`POSTURE_WINDOW_S`), of the change the style makes to the model's reading of
-it, scaled by the strength (so strength 0 stays the content). Parts that `--style-part` gives another
-library keep the content's action as that library's track decides.
+it, scaled by the strength (so strength 0 stays the content). Where the legs keep it because the windows
+perform another action (another gait or none, not another path), they also take a share
+(`TransferConfig.kept_statistics`) of the change the style's statistics alone make to the model's reading
+(the report's colouring of the content's latents): a walk given a run's style walks with the run's manner
+as far as statistics carry it. Parts that `--style-part` gives another library keep the content's action as
+that library's track decides.
 """
 
 from __future__ import annotations
@@ -43,46 +47,101 @@ def keep_weights(
     joints (K,); elsewhere each part's share from the tracks' `keep` (G,) weighted by their shares (G,), or
     at the joints a part track styles, that track's own; read at the output frames (positions (N,) on the
     model-rate output timeline whose content times, in content frames, are content_time (T_out,))."""
-    keep = np.zeros((len(positions), skeleton.num_joints))
     sources = [(np.arange(skeleton.num_joints), list(tracks), list(shares))]
     sources += [(joints, [track], [np.ones_like(grid)]) for joints, track in part_tracks]
-    for styled_joints, source_tracks, source_shares in sources:
-        for name, joints in body_parts(skeleton).items():
-            on_grid = np.zeros_like(grid)
-            for track, share in zip(source_tracks, source_shares):
-                if name in track.keep:
-                    on_grid += share * track.keep[name]
-            model_rate = on_output_frames(on_grid, grid, content_time)  # (T_out,)
-            joints = np.intersect1d(joints, styled_joints)
-            keep[:, joints] = np.interp(positions, np.arange(len(model_rate)), model_rate)[:, None]
+    keep = _per_joint(sources, "keep", skeleton, grid, content_time, positions)
     keep[:, kept] = 1.0
     return keep
 
 
+def statistics_weights(
+    tracks: Sequence[StyleTrack],
+    shares: Sequence[FloatArray],
+    skeleton: Skeleton,
+    grid: FloatArray,
+    content_time: FloatArray,
+    positions: FloatArray,
+    unstyled: IntArray,
+) -> FloatArray:
+    """(N, J) per output frame and joint, 0 to 1: where a part keeps the content's action because the
+    matched windows perform another (the tracks' `other_action`, weighted by their shares), read at the
+    output frames as `keep_weights` reads; 0 at the joints unstyled (U,): those the user keeps or another
+    library styles."""
+    sources = [(np.arange(skeleton.num_joints), list(tracks), list(shares))]
+    weights = _per_joint(sources, "other_action", skeleton, grid, content_time, positions)
+    weights[:, unstyled] = 0.0
+    return weights
+
+
+def _per_joint(
+    sources: Sequence[tuple[IntArray, list[StyleTrack], list[FloatArray]]],
+    field: str,
+    skeleton: Skeleton,
+    grid: FloatArray,
+    content_time: FloatArray,
+    positions: FloatArray,
+) -> FloatArray:
+    """(N, J): a per-part field of the tracks (`keep` or `other_action`, (G,) each) on every joint of its
+    part, for each source's joints (J_s,) from its tracks weighted by their shares (G,), read at the
+    output frames (positions (N,))."""
+    weights = np.zeros((len(positions), skeleton.num_joints))
+    for styled_joints, source_tracks, source_shares in sources:
+        for name, joints in body_parts(skeleton).items():
+            on_grid = np.zeros_like(grid)
+            for track, share in zip(source_tracks, source_shares):
+                values = getattr(track, field)
+                if name in values:
+                    on_grid += share * values[name]
+            model_rate = on_output_frames(on_grid, grid, content_time)  # (T_out,)
+            joints = np.intersect1d(joints, styled_joints)
+            weights[:, joints] = np.interp(positions, np.arange(len(model_rate)), model_rate)[:, None]
+    return weights
+
+
 def keep_target(
-    content: Motion, styled: Motion, reference: Motion, keep: FloatArray, kept: IntArray, strength: FloatArray
+    content: Motion,
+    styled: Motion,
+    reference: Motion,
+    keep: FloatArray,
+    kept: IntArray,
+    strength: FloatArray,
+    coloured: Motion | None = None,
+    colour: FloatArray | None = None,
 ) -> Motion:
     """What the kept joints become (N frames): the content (read at the output frames), with the style's
     local mean posture, times the strength (N,), on the `POSTURE_PARTS` joints that keep the content's
-    action automatically.
+    action automatically, and the style's statistics where `colour` asks.
 
     styled, reference: the decoded styled clip and the model's reading of the content (or the content
     itself) at the same N frames; keep (N, J) from `keep_weights`; kept (K,): joints the user keeps as
-    they are.
+    they are; coloured: the decoded clip of the content's latents coloured with the style's statistics
+    (the report's whitening and colouring), at the same frames; colour (N, J), 0 to 1: the share of its
+    change to the model's reading (`statistics_weights` times `TransferConfig.kept_statistics`).
     """
+    acting = strength > 0  # strength 0 stays the content exactly
+    scale = np.clip(strength[acting], 0.0, 1.0)[:, None, None]  # (A, 1, 1)
+    rotations = content.rotations.copy()
+    if coloured is not None and colour is not None:
+        joints = np.flatnonzero(np.any(colour > 0, axis=0))
+        change = _change(reference, coloured, joints)  # (N, C, 3)
+        weighted = scale * colour[np.ix_(acting, joints)][:, :, None] * change[acting]
+        rotations[np.ix_(acting, joints)] = multiply(rotations[np.ix_(acting, joints)], weighted)
     parts = body_parts(content.skeleton)
     named = [int(j) for name in POSTURE_PARTS for j in parts.get(name, [])]
     posture = np.setdiff1d(np.array(named, dtype=np.int64), kept)
-    if not len(posture):
-        return content
-    weight = keep[:, posture, None]  # (N, P, 1)
-    change = canonical_log(
-        quat_multiply(to_quat(-reference.rotations[:, posture]), to_quat(styled.rotations[:, posture]))
-    )  # (N, P, 3) the style's change to each posture joint
-    sigma = POSTURE_WINDOW_S * content.fps
-    mean_change = smooth(weight * change, sigma) / np.maximum(smooth(weight, sigma), 1e-9)  # (N, P, 3)
-    rotations = content.rotations.copy()
-    acting = strength > 0  # strength 0 stays the content exactly
-    scaled = np.clip(strength[acting], 0.0, 1.0)[:, None, None] * mean_change[acting]
-    rotations[np.ix_(acting, posture)] = multiply(rotations[np.ix_(acting, posture)], scaled)
+    if len(posture):
+        weight = keep[:, posture, None]  # (N, P, 1)
+        change = _change(reference, styled, posture)  # (N, P, 3) the style's change to each posture joint
+        sigma = POSTURE_WINDOW_S * content.fps
+        mean_change = smooth(weight * change, sigma) / np.maximum(smooth(weight, sigma), 1e-9)  # (N, P, 3)
+        rotations[np.ix_(acting, posture)] = multiply(
+            rotations[np.ix_(acting, posture)], scale * mean_change[acting]
+        )
     return Motion(content.skeleton, rotations, content.translations, content.fps)
+
+
+def _change(reference: Motion, changed: Motion, joints: IntArray) -> FloatArray:
+    """(N, C, 3) exp maps: each joint's (C,) local rotation from `reference` to `changed`."""
+    return canonical_log(
+        quat_multiply(to_quat(-reference.rotations[:, joints]), to_quat(changed.rotations[:, joints]))
+    )

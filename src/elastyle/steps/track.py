@@ -15,7 +15,7 @@ import numpy as np
 from elastyle.core.resample import interpolate_rows
 from elastyle.core.smoothing import smooth
 from elastyle.errors import ClipTooShortError
-from elastyle.steps.action import sustained_turning
+from elastyle.steps.action import TURNING_COLUMN, sustained_turning
 from elastyle.steps.arms import arm_mismatch, back_and_forth
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.library import StyleLibrary, match_frames
@@ -51,7 +51,9 @@ class StyleTrack(NamedTuple):
     mismatch: per body part, each patch's action mismatch (P,) (`part_mismatch`); measures: per body
     part, each patch's other measures of what it does (the legs' turning difference, rad/s; each arm's hand
     offset and rhythm difference, `steps.arms`); keep: per body part (G,), 0 to 1, the share of the
-    content's own action where the matched windows do another."""
+    content's own action where the matched windows do another; other_action: per body part (G,), 0 to 1,
+    where it keeps the content's action because the windows perform another (the legs: travel and steps,
+    not turning), so the style's statistics colour it (`TransferConfig.kept_statistics`)."""
 
     latents: FloatArray
     log_rate: FloatArray
@@ -61,6 +63,7 @@ class StyleTrack(NamedTuple):
     mismatch: dict[str, FloatArray]
     measures: dict[str, dict[str, FloatArray]]
     keep: dict[str, FloatArray]
+    other_action: dict[str, FloatArray]
 
 
 def requested_patch_frames(config: TransferConfig, fps: float) -> int:
@@ -95,7 +98,7 @@ def style_track(
         else:
             styled = adain(content_latents, [content_latents], [library.latents])
         still = np.zeros_like(grid)
-        return StyleTrack(interpolate_rows(styled, grid), still, [], 0, np.ones_like(grid), {}, {}, {})
+        return StyleTrack(interpolate_rows(styled, grid), still, [], 0, np.ones_like(grid), {}, {}, {}, {})
     wanted = requested_patch_frames(config, fps)
     patch_frames = min(wanted, library.longest_clip)
     if patch_frames < MIN_PATCH_FRAMES:
@@ -152,6 +155,7 @@ def style_track(
     }
     measures: dict[str, dict[str, FloatArray]] = {}  # per part, each measure's value per patch (P,)
     keep: dict[str, FloatArray] = {}
+    other_action: dict[str, FloatArray] = {}
 
     def on_grid(values: FloatArray, shifted_values: FloatArray) -> FloatArray:
         """(G,) per-patch values of both sequences (P,), (P - 1,), cross-faded as the latents are."""
@@ -159,9 +163,7 @@ def style_track(
                 + weight_b * _patch_values(grid, shifted, shifted_values)) / total  # fmt: skip
 
     if "legs" in mismatch:
-        shifted_mismatch = part_mismatch(
-            content_actions, library.actions, shifted, patch_frames, (part_columns or {})["legs"]
-        )
+        shifted_mismatch = part_mismatch(content_actions, library.actions, shifted, patch_frames, leg_columns)
         # a turning walk matched against straight windows keeps its turn, and the other way round
         content_turning = sustained_turning(content_actions, np.zeros(1, dtype=np.int64), fps)[:, None]
         library_turning = sustained_turning(library.actions, library.clip_starts, fps)[:, None]
@@ -169,12 +171,19 @@ def style_track(
             mean_gap(content_turning, library_turning, sequence, patch_frames)
             for sequence in (patches, shifted)
         ]
-        measures["legs"] = {"turning_difference": turning[0]}
+        # the gait alone (travel and steps without the turning): another action, not another path
+        gait = [
+            part_mismatch(content_actions, library.actions, sequence, patch_frames,
+                          leg_columns[leg_columns != TURNING_COLUMN])
+            for sequence in (patches, shifted)
+        ]  # fmt: skip
+        measures["legs"] = {"turning_difference": turning[0], "gait_mismatch": gait[0]}
         share = np.maximum(
             keep_share(on_grid(mismatch["legs"], shifted_mismatch), config.keep_action_above, ease),
             keep_share(on_grid(*turning), config.legs_turning_above, ease),
         )
         keep = {"legs": share, "spine": share}
+        other_action["legs"] = keep_share(on_grid(*gait), config.keep_action_above, ease)
         log_rate = (1 - share) * log_rate
     # each arm: where its hand is elsewhere or goes back and forth where the window's does not (or the
     # other way round), it keeps the content's action; the timeline stays the style's
@@ -197,7 +206,9 @@ def style_track(
         )
     # colour with the style's statistics
     coloured = library.stats.colour(white, config.whiten_floor)
-    return StyleTrack(coloured, log_rate, patches, patch_frames, fallback, mismatch, measures, keep)
+    return StyleTrack(
+        coloured, log_rate, patches, patch_frames, fallback, mismatch, measures, keep, other_action
+    )
 
 
 def stepping_tempo(
