@@ -246,7 +246,8 @@ def test_the_same_pair_skates_alike_at_30_and_60_fps(dataset_clips: list[ClipRef
         at_30 = floor_skating_cm_s(transfer(content, style).motion)
         # measured at 30 fps, as an independent benchmark would (the floor measure itself depends on the rate)
         at_60 = floor_skating_cm_s(transfer(content.resample(60), style).motion.resample(30))
-        assert at_60 == pytest.approx(at_30, rel=0.2), stem
+        # within a fifth, or 1 cm/s where both are small (real clips skate about 6 cm/s by this measure)
+        assert at_60 == pytest.approx(at_30, rel=0.2, abs=1.0), stem
 
 
 @pytest.mark.slow
