@@ -25,33 +25,43 @@ CONTENTS = ["walk_normal_005", "walk_normal_010", "run_normal_005", "walk-turn-l
             "wave-left-hand_normal_005", "raise-up-both-hands_normal_005"]  # fmt: skip
 
 
-@contextmanager
-def _cluster(folder: Path, workers: int = 2) -> Iterator[tuple[str, list[subprocess.Popen[bytes]]]]:
-    """A Dask scheduler and one-thread workers as separate processes: the address and the worker processes."""
-    scheduler_file = folder / "scheduler.json"
-    dask = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
+QUIET: dict[str, Any] = {
+    "stdout": subprocess.DEVNULL,
+    "stderr": subprocess.DEVNULL,
+    "start_new_session": True,
+}
+
+
+def _start_worker(scheduler_file: Path) -> subprocess.Popen[bytes]:
+    """A one-thread Dask worker process joining the scheduler of `scheduler_file`."""
     worker = [sys.executable, "-m", "distributed.cli.dask_worker", "--scheduler-file", str(scheduler_file),
               "--nthreads", "1", "--no-dashboard", "--memory-limit", "0"]  # fmt: skip
-    quiet: dict[str, Any] = {
-        "stdout": subprocess.DEVNULL,
-        "stderr": subprocess.DEVNULL,
-        "start_new_session": True,
-    }
-    processes = [subprocess.Popen([*dask, "--scheduler-file", str(scheduler_file), "--port", "0",
-                                   "--dashboard-address", ":0"], **quiet)]  # fmt: skip
+    return subprocess.Popen(worker, **QUIET)
+
+
+@contextmanager
+def _cluster(folder: Path, workers: int = 2) -> Iterator[tuple[str, list[subprocess.Popen[bytes]]]]:
+    """A Dask scheduler and one-thread workers as separate processes: the address and the worker processes
+    (a worker the caller adds to that list is stopped with the others)."""
+    scheduler_file = folder / "scheduler.json"
+    dask = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
+    scheduler = subprocess.Popen([*dask, "--scheduler-file", str(scheduler_file), "--port", "0",
+                                   "--dashboard-address", ":0"], **QUIET)  # fmt: skip
+    worker_processes: list[subprocess.Popen[bytes]] = []
     try:
         for _ in range(300):
             if scheduler_file.exists() and scheduler_file.read_text().strip():
                 break
             time.sleep(0.1)
         address = json.loads(scheduler_file.read_text())["address"]
-        processes += [subprocess.Popen(worker, **quiet) for _ in range(workers)]
+        worker_processes += [_start_worker(scheduler_file) for _ in range(workers)]
         from distributed import Client
 
         with Client(address, timeout="30s") as client:
             client.wait_for_workers(workers, timeout=60)
-        yield address, processes[1:]
+        yield address, worker_processes
     finally:
+        processes = [scheduler, *worker_processes]
         for process in processes:
             if process.poll() is None:
                 os.killpg(process.pid, signal.SIGTERM)
@@ -116,14 +126,18 @@ def test_an_unreachable_scheduler_is_one_line(tmp_path: Path, monkeypatch: pytes
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("workers", [2, 1], ids=["one-of-two-dies", "the-only-worker-dies-another-joins"])
 def test_a_worker_that_dies_mid_batch_does_not_lose_clips(
-    tmp_path: Path, dataset_clips: list[ClipRef]
+    tmp_path: Path, dataset_clips: list[ClipRef], workers: int
 ) -> None:
+    """With two workers the other finishes the batch; with one, the scattered job dies with it (its tasks are
+    cancelled by the scheduler) and the batch submits them again, with the job scattered anew, to a worker
+    that joins later."""
     walks = [c.name for c in dataset_clips if c.stem.startswith("dataset-2_walk_normal_")][:16]
     style = clip_named(dataset_clips, "dataset-2_walk_elderly_010").name
     local, remote = tmp_path / "local", tmp_path / "dask"
     assert _transfer(walks, style, local).returncode == 0
-    with _cluster(tmp_path, workers=2) as (address, workers):
+    with _cluster(tmp_path, workers=workers) as (address, processes):
         command = [sys.executable, "-m", "elastyle.cli", "transfer", *walks, "--style", style, "-o", f"{remote}/",
                    "--scheduler", address]  # fmt: skip
         batch = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
@@ -131,8 +145,10 @@ def test_a_worker_that_dies_mid_batch_does_not_lose_clips(
             if remote.exists() and any(remote.glob("*.bvh")):
                 break
             time.sleep(0.05)
-        os.killpg(workers[0].pid, signal.SIGKILL)
+        os.killpg(processes[0].pid, signal.SIGKILL)
         written_at_kill = len(list(remote.glob("*.bvh")))
+        if workers == 1:
+            processes.append(_start_worker(tmp_path / "scheduler.json"))
         _, stderr = batch.communicate(timeout=300)
     assert written_at_kill < len(walks)  # the worker died with the batch under way
     assert batch.returncode == 0, stderr

@@ -25,6 +25,7 @@ if TYPE_CHECKING:
 
 log = logging.getLogger("elastyle")
 CONNECT_TIMEOUT_S = 20  # how long to wait for a Dask scheduler to answer
+DASK_RESUBMITS = 100  # cancelled Dask tasks submitted again, in all, before the batch gives up
 
 
 class Job(NamedTuple):
@@ -115,36 +116,69 @@ def run_local(job: Job, contents: list[str], targets: list[Path], jobs: int | No
 
 def run_on_dask(job: Job, contents: list[str], targets: list[Path], address: str) -> int:
     """Many content clips as tasks of the Dask cluster at `address` (the job scattered to every worker
-    once; a task whose worker dies is run again elsewhere)."""
+    once; a task whose worker dies is run again elsewhere, and a task cancelled because the scattered job
+    went with a dead worker is submitted again with the job scattered anew, up to `DASK_RESUBMITS` times)."""
     try:
         from distributed import Client, as_completed
     except ImportError:
         raise UsageError('--scheduler needs Dask: pip install "elastyle[dask]"') from None
+    from concurrent.futures import CancelledError
+
     try:
         client = Client(address, timeout=f"{CONNECT_TIMEOUT_S}s")
     except (OSError, TimeoutError) as error:
         raise ElastyleError(f"{address}: cannot reach the Dask scheduler ({error})") from None
     with client:
-        shared = client.scatter(job, broadcast=True)
-        futures = {
-            client.submit(transfer_task, shared, content, target, pure=False, retries=2): (content, target)
-            for content, target in zip(contents, targets)
-        }
-        return _write_all(job, as_completed(futures), futures, lambda future: future.result())
+
+        def scatter() -> Any:
+            """One future for the whole job (a tuple given to scatter is scattered field by field)."""
+            return client.scatter([job], broadcast=True, hash=False)[0]
+
+        shared = [scatter()]
+        resubmits = [0]
+
+        def submit(task: tuple[str, Path]) -> Any:
+            return client.submit(transfer_task, shared[0], *task, pure=False, retries=2)
+
+        futures = {submit(task): task for task in zip(contents, targets)}
+        done = as_completed(futures)
+
+        def result(future: Any) -> bytes | str | None:
+            try:
+                return future.result()  # type: ignore[no-any-return]
+            except CancelledError:
+                if resubmits[0] >= DASK_RESUBMITS:
+                    raise
+                resubmits[0] += 1
+                log.info("a task was cancelled (its worker or the job was lost): submitted again")
+                if shared[0].status != "finished":  # the job went with its workers: scattered anew
+                    shared[0] = scatter()
+                again = submit(futures[future])
+                futures[again] = futures[future]
+                done.add(again)
+                return None
+
+        return _write_all(job, done, futures, result)
 
 
 def _write_all(
-    job: Job, done: Iterable[Any], tasks: dict[Any, tuple[str, Path]], result: Callable[[Any], bytes | str]
+    job: Job,
+    done: Iterable[Any],
+    tasks: dict[Any, tuple[str, Path]],
+    result: Callable[[Any], bytes | str | None],
 ) -> int:
     """Each finished task's output written (a progress bar on a terminal), one error line per failed clip;
-    the exit code."""
+    the exit code. `result` gives a task's output file bytes, its one-line error, or None where the task
+    was submitted again (it comes back through `done`)."""
     from tqdm import tqdm
 
-    failures = 0
-    with tqdm(total=len(tasks), unit="clip", desc="transfer", disable=None, dynamic_ncols=True) as bar:
+    failures, total = 0, len(tasks)
+    with tqdm(total=total, unit="clip", desc="transfer", disable=None, dynamic_ncols=True) as bar:
         for future in done:
             content, target = tasks[future]
             output = result(future)
+            if output is None:
+                continue
             try:
                 if isinstance(output, str):
                     raise ElastyleError(output)
@@ -153,5 +187,5 @@ def _write_all(
                 failures += 1
                 bar.write(f"elastyle: error: {error}", file=sys.stderr)
             bar.update()
-    log.info("%d of %d clips transferred", len(tasks) - failures, len(tasks))
+    log.info("%d of %d clips transferred", total - failures, total)
     return 1 if failures else 0
