@@ -96,6 +96,7 @@ def transfer(
     config = TransferConfig.of(config, **options)
     model = model or load_model()
     model.check_clip(content, content_name)
+    given, (content, size) = content, model.at_model_size(content)  # transferred at the model's size
     note = no_legs_note(content.skeleton, content_name) if config.cleanup else None
     if note is not None:
         log.warning("%s", note)
@@ -215,6 +216,8 @@ def transfer(
             {"parts": list(parse_parts(names, "--style-part")), **entry}
             for names, entry in zip((part_styles or {}).keys(), part_record["styles"])
         ]
+    if size != 1.0:  # back to the content's own size, on its own skeleton
+        motion = Motion(given.skeleton, motion.rotations, motion.translations / size, motion.fps)
     record["output_frames"] = motion.num_frames  # as written, at the content's frame rate
     record["output_fps"] = motion.fps
     record["content_reconstruction_cm"] = round(error_cm, 3)

@@ -51,5 +51,6 @@ def add_units_flag(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--units", choices=sorted(UNITS),
         help="the clips' length unit (default: guessed from the rest height: metres below 5 units tall, inches "
-        "from 40 to 90, else centimetres); it scales reported figures and .glb output, not the transfer",
+        "from 40 to 90, else centimetres); clips are transferred at the model's size and written at their own, "
+        "and it scales reported figures and .glb output",
     )  # fmt: skip

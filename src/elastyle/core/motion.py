@@ -52,6 +52,10 @@ class Motion:
         """Whether every rotation and translation is a finite number (nothing NaN or infinite)."""
         return bool(np.all(np.isfinite(self.rotations)) and np.all(np.isfinite(self.translations)))
 
+    def scaled(self, factor: float) -> Motion:
+        """The clip `factor` times as large: its skeleton and every translation (rotations unchanged)."""
+        return Motion(self.skeleton.scaled(factor), self.rotations, self.translations * factor, self.fps)
+
     def slice(self, start: int, stop: int) -> Motion:
         """Frames [start, stop) as a new clip."""
         return Motion(self.skeleton, self.rotations[start:stop], self.translations[start:stop], self.fps)

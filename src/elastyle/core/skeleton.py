@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
@@ -147,6 +147,14 @@ class Skeleton:
         """Vertical extent (Y) of the rest pose, in the file's length unit."""
         positions = self.rest_positions()
         return float(np.ptp(positions[:, 1]))
+
+    def scaled(self, factor: float) -> Skeleton:
+        """This skeleton `factor` times as large (offsets and End Sites; a stated unit follows, so the same
+        centimetres are meant)."""
+        unit_cm = None if self.unit_cm is None else self.unit_cm / factor
+        return replace(
+            self, offsets=self.offsets * factor, end_sites=self.end_sites * factor, unit_cm=unit_cm
+        )
 
 
 def _opposite_side(word: str) -> str:

@@ -10,11 +10,12 @@ from elastyle.model.file import StyleModel
 
 
 def reconstruct(model: StyleModel, motion: Motion, smooth_s: float = 0.0) -> Motion:
-    """The clip through the autoencoder, on its own root path and timeline."""
-    working = motion.resample(model.fps)
-    latents, root = model.encode_motion(working)
-    decoded = model.decode_latents(latents, smooth_s)
-    return model.features.decode(decoded, root, model.fps).resample(motion.fps)
+    """The clip through the autoencoder, on its own root path, timeline, skeleton and size."""
+    sized, factor = model.at_model_size(motion)
+    latents, root = model.encode_motion(sized.resample(model.fps))
+    decoded = model.features.decode(model.decode_latents(latents, smooth_s), root, model.fps)
+    decoded = decoded.resample(motion.fps)
+    return Motion(motion.skeleton, decoded.rotations, decoded.translations / factor, motion.fps)
 
 
 def reconstruction_report(

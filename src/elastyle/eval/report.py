@@ -17,18 +17,19 @@ from elastyle.eval.metrics import (
 
 
 def bone_length_error_cm(motion: Motion, reference: Motion) -> float:
-    """Largest difference (cm) between a bone's length in `motion` and in `reference` (first frames)."""
+    """Largest difference (cm) between a bone's length in `motion` and in `reference` (first frames), each
+    clip in its own length unit."""
     parents = motion.skeleton.parents
     children = np.flatnonzero(parents >= 0)
-    ours = motion.positions()
-    theirs = reference.positions()[:1]
+    ours = motion.positions() * centimetres_per_unit(motion.skeleton)
+    theirs = reference.positions()[:1] * centimetres_per_unit(reference.skeleton)
     length = np.linalg.norm(ours[:, children] - ours[:, parents[children]], axis=-1)  # (T, J-1)
     expected = np.linalg.norm(theirs[:, children] - theirs[:, parents[children]], axis=-1)
     # the pelvis's own translation is animated: leave out bones from joints above it
     keep = children > motion.skeleton.pelvis
     if not np.any(keep):  # no bones below the pelvis: nothing to measure
         return 0.0
-    return float(np.abs(length - expected)[:, keep].max() * centimetres_per_unit(motion.skeleton))
+    return float(np.abs(length - expected)[:, keep].max())
 
 
 def transfer_figures(output: Motion, content: Motion, style: Motion) -> dict[str, float]:
@@ -45,9 +46,9 @@ def transfer_figures(output: Motion, content: Motion, style: Motion) -> dict[str
         figures[f"arm_swing_{name}_hz"] = arm_swing_hz(motion, positions[name])
         figures[f"skating_{name}_cm_s"] = floor_skating_cm_s(motion, positions[name])
         figures[f"skating_own_contacts_{name}_cm_s"] = foot_skating_cm_s(motion, positions[name])
-    figures["jitter_vs_content"] = jerk(positions["output"], output.fps) / max(
-        jerk(positions["content"], content.fps), 1e-9
-    )
+    figures["jitter_vs_content"] = jerk(
+        positions["output"] * centimetres_per_unit(output.skeleton), output.fps
+    ) / max(jerk(positions["content"] * centimetres_per_unit(content.skeleton), content.fps), 1e-9)
     figures["bone_length_error_cm"] = bone_length_error_cm(output, content)
     figures["duration_output_s"] = output.duration_s
     figures["duration_content_s"] = content.duration_s

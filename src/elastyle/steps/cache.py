@@ -53,7 +53,8 @@ def model_fingerprint(model: StyleModel) -> str:
     return digest.hexdigest()
 
 
-CACHE_VERSION = 4  # 2: one BLAS thread; 3: action descriptors; 4: their ground by nearest sample
+# 2: one BLAS thread; 3: action descriptors; 4: their ground by nearest sample; 5: clips at the model's size
+CACHE_VERSION = 5
 
 
 def library_key(model: StyleModel, clips: list[ClipRef], mirror_style: bool) -> str:

@@ -20,6 +20,7 @@ from urllib.parse import urlsplit
 
 import numpy as np
 
+from elastyle.core.body import centimetres_per_unit
 from elastyle.core.motion import Motion
 from elastyle.errors import ElastyleError
 from elastyle.viewer.render import bones, grid_spacing, joint_sides
@@ -50,7 +51,7 @@ def build_payload(
     clips = []
     height = 0.0
     for motion, label in zip(motions, labels):
-        positions = motion.positions()  # (T, J, 3) file units, +Y up
+        positions = motion.positions() * centimetres_per_unit(motion.skeleton)  # (T, J, 3) cm, +Y up
         ground = float(positions[..., 1].min())
         height = max(height, float(positions[..., 1].max()) - ground)
         clips.append(

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from elastyle.core.body import centimetres_per_unit
 from elastyle.core.motion import Motion
 from elastyle.core.resample import interpolate_rows
 from elastyle.core.skeleton import Skeleton
@@ -126,7 +127,8 @@ def render_clips(
     """Render clips side by side, one panel each, to `output` (.gif or .mp4); returns the frame count.
 
     Clips play from time 0 together; a shorter clip holds its last frame. `fps` defaults to the fastest clip's
-    rate (at most 30 for GIF). Lengths are drawn in each file's own unit (cm for the Bandai Namco data).
+    rate (at most 30 for GIF). Lengths are drawn in centimetres, each clip from its own length unit (as stated
+    with `--units`, else guessed from its rest height), so a clip in metres stands beside one in centimetres.
     """
     if len(motions) != len(labels):
         raise ValueError(f"{len(motions)} motions but {len(labels)} labels")
@@ -149,7 +151,9 @@ def render_clips(
     # 1. Sample every clip at the output frame times; shorter clips hold their last frame.
     num_frames = max(int(round((m.num_frames - 1) * fps / m.fps)) + 1 for m in motions)
     times_s = np.arange(num_frames) / fps  # (N,)
-    positions = [sample_positions(m.positions(), m.fps, times_s) for m in motions]  # each (N, J, 3)
+    positions = [
+        sample_positions(m.positions() * centimetres_per_unit(m.skeleton), m.fps, times_s) for m in motions
+    ]  # each (N, J, 3) cm
     grounds = [float(p[..., 1].min()) for p in positions]
     height = max(float(p[..., 1].max()) - g for p, g in zip(positions, grounds))
     height = height if height > 0 else 1.0

@@ -1,0 +1,69 @@
+"""Clips of another length unit or another body size: transferred at the model's size, written at their own."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from elastyle import Motion
+from elastyle.eval.report import transfer_figures
+from elastyle.io.dataset import ClipRef
+from elastyle.model.depth import clip_depth
+from elastyle.model.file import load_model
+from elastyle.pipeline import transfer
+from tests.conftest import clip_named
+
+
+@pytest.fixture(scope="module")
+def model():  # type: ignore[no-untyped-def]
+    return load_model()
+
+
+@pytest.fixture(scope="module")
+def walk(dataset_clips: list[ClipRef]) -> Motion:
+    return clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0]
+
+
+@pytest.fixture(scope="module")
+def style(dataset_clips: list[ClipRef]) -> Motion:
+    return clip_named(dataset_clips, "dataset-2_walk_active_010").read()[0]
+
+
+@pytest.mark.slow
+def test_clips_in_metres_transfer_as_in_centimetres(model, walk: Motion, style: Motion) -> None:  # type: ignore[no-untyped-def]
+    in_cm = transfer(walk, style, model=model).motion
+    in_m = transfer(walk.scaled(0.01), style.scaled(0.01), model=model).motion
+    assert np.array_equal(
+        in_m.skeleton.offsets, walk.scaled(0.01).skeleton.offsets
+    )  # the content's own skeleton
+    assert np.abs(in_m.positions() * 100 - in_cm.positions()).max() < 1e-6  # cm
+    figures = transfer_figures(in_m, walk, style)  # eval: each clip in its own unit
+    assert figures["bone_length_error_cm"] < 1e-6
+    assert figures["jitter_vs_content"] == pytest.approx(
+        transfer_figures(in_cm, walk, style)["jitter_vs_content"]
+    )
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("factor", [0.01, 0.85, 1.15])
+def test_another_size_is_read_as_well_as_the_models_own(model, walk: Motion, factor: float) -> None:  # type: ignore[no-untyped-def]
+    own, warning = clip_depth(model, walk, "walk")
+    assert warning is None
+    error, warning = clip_depth(model, walk.scaled(factor), "walk")
+    assert (
+        warning is None and error < 1.3 * own
+    )  # read at the model's size (15 % off read raw: about 10 times)
+
+
+@pytest.mark.slow
+def test_a_smaller_character_keeps_its_size_and_stays_the_content_at_strength_zero(
+    model, walk: Motion, style: Motion
+) -> None:  # type: ignore[no-untyped-def]
+    small = walk.scaled(0.8)
+    output = transfer(small, style, model=model, strength=0.0).motion
+    assert np.array_equal(output.skeleton.offsets, small.skeleton.offsets)
+    assert np.abs(output.positions() - small.positions()).max() < 0.05
+    styled = transfer(small, style, model=model).motion
+    pelvis = small.skeleton.pelvis
+    heights = styled.positions()[:, pelvis, 1].mean(), small.positions()[:, pelvis, 1].mean()
+    assert abs(heights[0] / heights[1] - 1) < 0.1  # its own size, not the model's
