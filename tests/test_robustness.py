@@ -359,3 +359,64 @@ def test_same_transfer_is_byte_identical_across_processes(
         assert result.returncode == 0, result.stderr
         outputs.append(out.read_bytes())
     assert outputs[0] == outputs[1]
+
+
+def _dataset_copies(folder: Path, dataset_clips: list[ClipRef], stems: list[str]) -> list[Path]:
+    """Real dataset clips written to `folder` (a test's temporary folder, never the project)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for stem in stems:
+        path = folder / f"{stem}.bvh"
+        path.write_bytes(clip_named(dataset_clips, stem).data())
+        paths.append(path)
+    return paths
+
+
+def test_eval_refuses_wrong_arguments_before_any_work(tmp_path: Path, dataset_clips: list[ClipRef]) -> None:
+    data = str(tmp_path / "missing.zip")  # never read: each case is refused first
+    for args, message in [
+        (["--benchmark", data, "--pairs", "0"], "--pairs: must be at least 1"),
+        (["--benchmark", data, "--pairs", "-1"], "--pairs: must be at least 1"),
+        (["out.bvh", "--benchmark", data], "not both"),
+        (["out.bvh", "--content", "c.bvh", "--style", "s.bvh", "--out", str(tmp_path)], "needs --benchmark"),
+    ]:
+        result = _cli("eval", *args)
+        assert result.returncode == 2 and message in result.stderr, (args, result.stderr)
+    report = tmp_path / "report"
+    report.mkdir()
+    (report / "benchmark.md").write_text("mine")
+    result = _cli("eval", "--benchmark", data, "--out", str(report))
+    assert result.returncode == 1 and "benchmark.md: already exists" in result.stderr
+    assert (report / "benchmark.md").read_text() == "mine"
+    # a folder too small for the benchmark's classifiers: one line, no traceback
+    few = tmp_path / "few"
+    _dataset_copies(few, dataset_clips, ["dataset-2_walk_normal_005", "dataset-2_walk_active_010"])
+    result = _cli("eval", "--benchmark", str(few), "--pairs", "1")
+    assert result.returncode == 1 and "classifiers need training takes" in result.stderr, result.stderr
+    assert result.stderr.count("\n") == 1 and "Traceback" not in result.stderr
+
+
+def test_content_folders_globs_and_a_refused_batch(tmp_path: Path, dataset_clips: list[ClipRef]) -> None:
+    walks = _dataset_copies(
+        tmp_path / "walks", dataset_clips, ["dataset-2_walk_normal_005", "dataset-2_walk_normal_010"]
+    )
+    style = _dataset_copies(tmp_path / "style", dataset_clips, ["dataset-2_walk_active_010"])[0]
+    for spec, folder in ((str(tmp_path / "walks"), "a"), (str(tmp_path / "walks" / "*_010.bvh"), "b")):
+        result = _cli("transfer", spec, "--style", str(style), "-o", f"{tmp_path / folder}/")
+        assert result.returncode == 0, result.stderr
+    assert sorted(p.name for p in (tmp_path / "a").iterdir()) == sorted(p.name for p in walks)
+    assert [p.name for p in (tmp_path / "b").iterdir()] == [walks[1].name]
+    # two contents that would share an output: refused naming both, and no output folder is left behind
+    other = _dataset_copies(tmp_path / "other", dataset_clips, ["dataset-2_walk_normal_005"])[0]
+    result = _cli("transfer", str(walks[0]), str(other), "--style", str(style), "-o", f"{tmp_path / 'c'}/")
+    assert result.returncode == 1 and str(other) in result.stderr and str(walks[0]) in result.stderr
+    assert not (tmp_path / "c").exists()
+
+
+def test_demo_refuses_before_writing_anything(tmp_path: Path, data_path: Path) -> None:
+    folder = tmp_path / "demo"
+    folder.mkdir()
+    (folder / "active_rigid.json").write_text("mine")
+    result = _cli("demo", "--data", str(data_path), "-o", str(folder), "--no-render")
+    assert result.returncode == 1 and "active_rigid.json: already exists" in result.stderr
+    assert [p.name for p in folder.iterdir()] == ["active_rigid.json"]

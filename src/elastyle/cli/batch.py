@@ -114,15 +114,22 @@ def run_local(job: Job, contents: list[str], targets: list[Path], jobs: int | No
         return _write_all(job, as_completed(futures), futures, lambda future: future.result())
 
 
+def require_dask() -> None:
+    """A `UsageError` where Dask's scheduler client is not installed."""
+    import importlib.util
+
+    if importlib.util.find_spec("distributed") is None:
+        raise UsageError('--scheduler needs Dask: pip install "elastyle[dask]"')
+
+
 def run_on_dask(job: Job, contents: list[str], targets: list[Path], address: str) -> int:
     """Many content clips as tasks of the Dask cluster at `address` (the job scattered to every worker
     once; a task whose worker dies is run again elsewhere, and a task cancelled because the scattered job
     went with a dead worker is submitted again with the job scattered anew, up to `DASK_RESUBMITS` times)."""
-    try:
-        from distributed import Client, as_completed
-    except ImportError:
-        raise UsageError('--scheduler needs Dask: pip install "elastyle[dask]"') from None
+    require_dask()
     from concurrent.futures import CancelledError
+
+    from distributed import Client, as_completed
 
     try:
         client = Client(address, timeout=f"{CONNECT_TIMEOUT_S}s")

@@ -18,14 +18,22 @@ DEMO_STYLES = ("dataset-2_walk_exhausted_005", "dataset-2_walk_active_010", "dat
 
 
 def add_eval_commands(commands: Any) -> None:
-    evaluate = commands.add_parser("eval", help="figures of a transfer, or the benchmark over dataset pairs")
+    evaluate = commands.add_parser(
+        "eval",
+        help="figures of a transfer, or the benchmark over dataset pairs",
+        description="Figures of one transfer (OUT --content C --style S: cadence and timing error, arm swing, "
+        "foot skating, jitter, bone lengths, what the model can represent of the inputs), or the benchmark "
+        "over the dataset's held-out pairs (--benchmark DATA).",
+    )
     evaluate.add_argument("output", nargs="?", help="a transfer's output BVH")
     evaluate.add_argument("--content", help="the content clip of that transfer")
     evaluate.add_argument("--style", help="the style clip of that transfer")
     evaluate.add_argument(
         "--benchmark", metavar="DATA", help="run the benchmark on the dataset (zip or folder)"
     )
-    evaluate.add_argument("--pairs", type=int, default=24, help="benchmark pairs per set (default 24)")
+    evaluate.add_argument(
+        "--pairs", type=_positive_int, default=24, help="benchmark pairs per set, at least 1 (default 24)"
+    )
     evaluate.add_argument("--model", help="model file (default: the shipped model)")
     add_units_flag(evaluate)
     evaluate.add_argument("--out", help="folder for benchmark.json and benchmark.md")
@@ -48,6 +56,13 @@ def add_eval_commands(commands: Any) -> None:
     demo.set_defaults(run=run_demo)
 
 
+def _positive_int(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
 def run_eval(args: argparse.Namespace) -> int:
     from elastyle.io.dataset import read_clip
     from elastyle.model.file import load_model
@@ -56,16 +71,25 @@ def run_eval(args: argparse.Namespace) -> int:
         raise UsageError(
             "--units applies to OUT, --content and --style; the benchmark's dataset is in centimetres"
         )
+    if args.benchmark and (args.output or args.content or args.style):
+        raise UsageError("give OUT.bvh --content C.bvh --style S.bvh, or --benchmark DATA, not both")
+    if args.out and not args.benchmark:
+        raise UsageError("--out is the benchmark's report folder; it needs --benchmark DATA")
     if args.benchmark:
         from elastyle.eval.suite import markdown_table, run_benchmark
-        from elastyle.io.files import write_text_atomic
+        from elastyle.io.files import check_output_path, write_text_atomic
 
+        folder = Path(args.out) if args.out else None
+        if folder is not None and folder.exists():  # refused before the benchmark runs, not after
+            if not folder.is_dir():
+                raise UsageError(f"{folder}: --out must be a folder")
+            for name in ("benchmark.json", "benchmark.md"):
+                check_output_path(folder / name, force=args.force)
         model = load_model(args.model)
         report = run_benchmark(args.benchmark, model, args.pairs)
         table = markdown_table(report)
         print(table)
-        if args.out:
-            folder = Path(args.out)
+        if folder is not None:
             folder.mkdir(parents=True, exist_ok=True)
             write_text_atomic(folder / "benchmark.json", json.dumps(report, indent=1), force=args.force)
             write_text_atomic(folder / "benchmark.md", table, force=args.force)
@@ -126,6 +150,13 @@ def run_demo(args: argparse.Namespace) -> int:
             f"{data}: demo clips missing ({', '.join(missing)}); is it the Bandai Namco dataset 2?"
         )
     folder = Path(args.output)
+    if folder.exists():  # every output checked before the first is written
+        from elastyle.io.files import check_output_path
+
+        names = [f"{stem.split('_')[2]}_{method}{suffix}" for stem in DEMO_STYLES
+                 for method in ("elastic", "rigid") for suffix in (".bvh", ".json")]  # fmt: skip
+        for name in names + ([] if args.no_render else ["exhausted.gif"]):
+            check_output_path(folder / name, force=args.force)
     folder.mkdir(parents=True, exist_ok=True)
     model = load_model()
     content, layout = clips[DEMO_CONTENT].read()

@@ -8,7 +8,7 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from elastyle.cli.batch import Job, run_local, run_on_dask, transfer_one
+from elastyle.cli.batch import Job, require_dask, run_local, run_on_dask, transfer_one
 from elastyle.cli.options import add_config_flags, add_units_flag, config_from_args
 from elastyle.core.motion import Motion
 from elastyle.errors import BvhError, OutputError, UsageError
@@ -28,7 +28,11 @@ def add_transfer_command(commands: Any) -> None:
         help="perform content clips in the manner and timing of style clips",
         description="Perform CONTENT in the manner and timing of the --style clips (several form one library).",
     )
-    parser.add_argument("content", nargs="+", help="content BVH clip(s); several need -o FOLDER/")
+    parser.add_argument(
+        "content",
+        nargs="+",
+        help="content BVH clip(s), or folders, globs and zip archives of them; several need -o FOLDER/",
+    )
     parser.add_argument(
         "--style", action="append", required=True, help="style clip, folder, glob or zip path (repeatable)"
     )
@@ -88,21 +92,40 @@ def _outputs(args: argparse.Namespace) -> tuple[list[str], list[Path]]:
         return contents, [check_output_path(output, force=args.force, inputs=inputs)]
     if not as_folder:
         raise UsageError(f"{args.output}: several content clips need an output folder: -o {args.output}/")
-    if not output.is_dir():
-        if not output.parent.is_dir():
-            raise OutputError(
-                f"{output}: several content clips need an output folder, and {output.parent} does not exist"
-            )
-        output.mkdir()
+    if not output.is_dir() and not output.parent.is_dir():
+        raise OutputError(
+            f"{output}: several content clips need an output folder, and {output.parent} does not exist"
+        )
     targets = [output / (Path(c).stem + ".bvh") for c in contents]
-    if len(set(targets)) != len(targets):
-        raise OutputError(f"{output}: two content clips share a file name")
+    first: dict[Path, str] = {}
+    for content, target in zip(contents, targets):
+        if target in first:
+            raise OutputError(f"{content} and {first[target]} would both be written to {target}; rename one")
+        first[target] = content
+    if not output.is_dir():  # made by `run_transfer` once everything is checked: nothing exists there yet
+        return contents, targets
     if args.skip_existing and not args.force:
         kept = [(c, t) for c, t in zip(contents, targets) if not t.exists()]
         if len(kept) < len(contents):
             log.info("note: %d of %d outputs exist and are skipped", len(contents) - len(kept), len(contents))
         contents, targets = [c for c, _ in kept], [t for _, t in kept]
     return contents, [check_output_path(t, force=args.force, inputs=inputs) for t in targets]
+
+
+def _content_clips(specs: list[str]) -> list[str]:
+    """The content arguments with folders, globs and zip archives replaced by the clips they hold."""
+    from elastyle.io.dataset import find_clips
+
+    clips: list[str] = []
+    for spec in specs:
+        path = Path(spec)
+        many = (
+            path.is_dir()
+            or any(c in spec for c in "*?[")
+            or (spec.lower().endswith(".zip") and path.is_file())
+        )
+        clips += [clip.name for clip in find_clips([spec])] if many else [spec]
+    return clips
 
 
 def _check_inputs_readable(specs: tuple[str, ...]) -> None:
@@ -132,6 +155,7 @@ def run_transfer(args: argparse.Namespace) -> int:
     from elastyle.steps.schedule import Schedule
 
     config = config_from_args(TransferConfig, args)  # validated once: a bad value is a UsageError
+    args.content = _content_clips(args.content)
     _check_style_options(args)
     _style_parts(args)  # checked before any work
     contents, targets = _outputs(args)
@@ -168,6 +192,10 @@ def run_transfer(args: argparse.Namespace) -> int:
         style, model, config, second, second_weight, part_styles, args.units, args.force, args.explain,
         _inputs(args),
     )  # fmt: skip
+    if args.scheduler:
+        require_dask()
+    if targets:
+        targets[0].parent.mkdir(exist_ok=True)  # an output folder is made once everything is checked
     if len(args.content) == 1:
         transfer_one(job, args.content[0], targets[0])
         return 0

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from elastyle.core.motion import Motion
+from elastyle.errors import DatasetError
 from elastyle.eval.benchmark import benchmark_pairs, score_pairs
 from elastyle.eval.classify import RidgeClassifier, describe
 from elastyle.io.dataset import ClipRef, DatasetLabel, dataset_label, find_clips, is_held_out, labelled_clips
@@ -76,8 +77,14 @@ def train_classifiers(data: str, model: StyleModel, per_class: int = 12) -> Clas
         return x, [label.style for _, label in rows], [label.content for _, label in rows]
 
     x_train, styles, contents = split(False)
-    style, content = RidgeClassifier.fit(x_train, styles), RidgeClassifier.fit(x_train, contents)
     x_test, styles_test, contents_test = split(True)
+    if len(set(styles)) < 2 or len(set(contents)) < 2 or not len(x_test):
+        raise DatasetError(
+            f"{data}: the benchmark's classifiers need training takes (take % 5 != 0) of at least two styles "
+            f"and two content types, and held-out takes (% 5 == 0); found {len(x_train)} training clips of "
+            f"{len(set(styles))} style(s) and {len(set(contents))} content type(s), {len(x_test)} held-out"
+        )
+    style, content = RidgeClassifier.fit(x_train, styles), RidgeClassifier.fit(x_train, contents)
     return Classifiers(
         style, content, style.accuracy(x_test, styles_test), content.accuracy(x_test, contents_test),
         model.features, model.fps,
