@@ -148,6 +148,8 @@ def transfer(
         shares = [1 - mix, mix]
     content_on_grid = interpolate_rows(content_latents, grid)  # (G, Z)
     latents, log_rate = mix_tracks(content_on_grid, strength, tracks, shares)
+    if "legs" in config.kept_parts:  # legs performed as in the content set its pace, as kept legs always do
+        log_rate = np.zeros_like(log_rate)
     content_time = output_content_times(grid, log_rate)  # (T_out,) content frames
     # decode on the output's timeline, the root path read at the same content times
     root_out = root.sample(content_time)

@@ -132,7 +132,8 @@ class TransferConfig:
     )  # fmt: skip
     keep_part: str = option(
         "",
-        "body parts performed as in the content (comma-separated: legs, spine, left-arm, right-arm, arms)",
+        "body parts performed as in the content (comma-separated: legs, spine, left-arm, right-arm, arms); "
+        "kept legs keep the content's pace too",
     )
     smooth_s: float = option(
         1 / 30, "Gaussian low-pass of the decoded motion, sigma in seconds (0: none; the default is one frame at 30 fps)",
