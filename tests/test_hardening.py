@@ -262,6 +262,17 @@ def test_a_shortened_patch_is_noted_and_recorded(tmp_path: Path, dataset_clips: 
     record = json.loads(explain.read_text())
     assert record["styles"][0]["patch_s_used"] == pytest.approx(20 / 30, abs=1e-3)
     assert record["notes"] and "instead of --patch-s 1" in record["notes"][0]
+    # a style clip under half a patch: a warning that says what it costs, not a note
+    tiny = tmp_path / "tiny.bvh"
+    tiny.write_text(
+        head.replace(head.split("Frames:")[1].split("\n")[0], " 5")
+        + "Frame Time:"
+        + "\n".join(rows[:6])
+        + "\n"
+    )
+    result = _cli("transfer", walk.name, "--style", str(tiny), "-o", str(tmp_path / "t.bvh"))
+    assert result.returncode == 0 and "warning: the style clips are at most 0.17 s long" in result.stderr
+    assert "give a style clip at least as long as --patch-s" in result.stderr
 
 
 @pytest.mark.slow

@@ -57,7 +57,9 @@ def add_transfer_command(commands: Any) -> None:
     )  # fmt: skip
     parser.add_argument("--blend-style", action="append", help="a second style blended in at --blend")
     parser.add_argument("--blend", type=float, help="share of --blend-style, 0..1 (default 0.5)")
-    parser.add_argument("--explain", help="write a JSON record of every output patch's source")
+    parser.add_argument(
+        "--explain", help="write a JSON record of every output patch's source (one content clip only)"
+    )
     parser.add_argument("--no-cache", action="store_true", help="encode the style library afresh (no cache)")
     parser.add_argument(
         "--jobs", type=int, default=None, metavar="N",

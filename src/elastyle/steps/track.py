@@ -25,6 +25,7 @@ from elastyle.types import FloatArray, IntArray
 
 log = logging.getLogger(__name__)
 MIN_PATCH_FRAMES = 4
+SHORT_PATCH_SHARE = 0.5  # patches shortened below this share of --patch-s get a warning, not a note
 FALLBACK_RAMP = (
     0.15  # the fallback to statistics rises from 0 to 1 over this much similarity below its threshold
 )
@@ -107,7 +108,13 @@ def style_track(
             f"{names}: too short for a patch ({library.longest_clip} frame(s) at {fps:g} fps at most; patches "
             f"need at least {MIN_PATCH_FRAMES})"
         )
-    if patch_frames < wanted:
+    if patch_frames < SHORT_PATCH_SHARE * wanted:  # so short a style gives little to swap in: said plainly
+        log.warning(
+            "warning: %s; windows this short carry little of a style's manner and the output may step or "
+            "slide oddly: give a style clip at least as long as --patch-s",
+            shortened_patch_note(patch_frames, config, fps),
+        )
+    elif patch_frames < wanted:
         log.info("note: %s", shortened_patch_note(patch_frames, config, fps))
     # whiten, then match: the elastic search over stretched content patches, in two half-shifted sequences
     windows = library.windows(patch_frames, config.whiten_floor, config.action_weight)
