@@ -420,3 +420,22 @@ def test_demo_refuses_before_writing_anything(tmp_path: Path, data_path: Path) -
     result = _cli("demo", "--data", str(data_path), "-o", str(folder), "--no-render")
     assert result.returncode == 1 and "active_rigid.json: already exists" in result.stderr
     assert [p.name for p in folder.iterdir()] == ["active_rigid.json"]
+
+
+def test_contradicting_transfer_options_exit_2(tmp_path: Path) -> None:
+    good = tmp_path / "good.bvh"
+    good.write_text(GOOD)
+    for flags, message in [
+        (["--style-part", f"left-arm={good}", "--keep-part", "arms"], "left-arm: both kept"),
+        (["--skip-existing", "--force"], "not both"),
+    ]:
+        result = _cli("transfer", str(good), "--style", str(good), "-o", str(tmp_path / "x.bvh"), *flags)
+        assert result.returncode == 2 and message in result.stderr, (flags, result.stderr)
+    assert not (tmp_path / "x.bvh").exists()
+
+
+def test_info_takes_several_clips(tmp_path: Path) -> None:
+    for name in ("a.bvh", "b.bvh"):
+        (tmp_path / name).write_text(GOOD)
+    result = _cli("info", str(tmp_path / "a.bvh"), str(tmp_path / "b.bvh"))
+    assert result.returncode == 0 and result.stdout.count("frames:   3") == 2

@@ -21,7 +21,7 @@ log = logging.getLogger("elastyle")
 def _command_info(args: argparse.Namespace) -> int:
     from elastyle.io.dataset import find_clips
 
-    for clip in find_clips([args.clip]):
+    for clip in find_clips(args.clip):
         motion, layout = clip.read()
         skeleton = motion.skeleton
         channel_counts = sorted({len(c) for c in layout.channels})
@@ -71,8 +71,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--verbose", action="store_true", help="show tracebacks and debug logging")
     commands = parser.add_subparsers(dest="command", required=True)
 
-    info = commands.add_parser("info", help="joints, channels, frames, fps, duration and height of a clip")
-    info.add_argument("clip", help="a BVH file (or a path inside a zip archive)")
+    info = commands.add_parser("info", help="joints, channels, frames, fps, duration and height of clips")
+    info.add_argument("clip", nargs="+", help="BVH or .glb files, folders, globs or zip archives of them")
     info.set_defaults(run=_command_info)
 
     convert = commands.add_parser("convert", help="resample, mirror and rewrite a BVH clip")

@@ -160,6 +160,14 @@ def run_transfer(args: argparse.Namespace) -> int:
     args.content = _content_clips(args.content)
     _check_style_options(args)
     _style_parts(args)  # checked before any work
+    from elastyle.core.parts import parse_parts
+
+    styled = {part for names, _ in _style_parts(args) for part in parse_parts(names, "--style-part")}
+    both = sorted(styled & set(config.kept_parts))
+    if both:
+        raise UsageError(
+            f"{', '.join(both)}: both kept (--keep-part) and given another clip (--style-part); give one"
+        )
     contents, targets = _outputs(args)
     _check_inputs_readable(_inputs(args))
     if args.explain:
@@ -247,6 +255,10 @@ def _check_style_options(args: argparse.Namespace) -> None:
         raise UsageError(f"--at is a time in the content, from 0 s; got {args.at:g} s")
     if args.blend is not None and not 0 <= args.blend <= 1:
         raise UsageError(f"--blend must lie between 0 and 1, got {args.blend:g}")
+    if args.skip_existing and args.force:
+        raise UsageError(
+            "give --skip-existing (leave outputs that exist) or --force (overwrite them), not both"
+        )
     if args.jobs is not None and args.jobs < 1:
         raise UsageError(f"--jobs must be at least 1, got {args.jobs}")
     if args.explain and len(args.content) > 1:
