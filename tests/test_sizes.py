@@ -67,3 +67,14 @@ def test_a_smaller_character_keeps_its_size_and_stays_the_content_at_strength_ze
     pelvis = small.skeleton.pelvis
     heights = styled.positions()[:, pelvis, 1].mean(), small.positions()[:, pelvis, 1].mean()
     assert abs(heights[0] / heights[1] - 1) < 0.1  # its own size, not the model's
+
+
+def test_training_brings_its_clips_to_one_size(walk: Motion) -> None:
+    """Training reads clips as a transfer does: another unit or another body size at the first clip's size."""
+    from elastyle.training.loop import at_one_size
+
+    taller = walk.scaled(1.01)  # within the performers' own spread: kept as it is
+    sized = at_one_size([walk, walk.scaled(0.01), walk.scaled(1.1), taller], walk.skeleton)
+    assert sized[0] is walk and sized[3] is taller
+    for motion in sized[1:3]:
+        np.testing.assert_allclose(motion.translations, walk.translations, rtol=1e-12, atol=1e-9)

@@ -75,6 +75,27 @@ def centimetres_per_unit(skeleton: Skeleton) -> float:
     return 1.0
 
 
+# clips within this share of the reference skeleton's rest height keep their own size: the training
+# performers' own spread (the shipped model's: 98.0 to 99.8 cm against its skeleton's 98.0 cm)
+SIZE_TOLERANCE = 0.02
+
+
+def size_factor(clip: Skeleton, reference: Skeleton) -> float:
+    """The scale that brings a clip's skeleton to the reference's length unit (`centimetres_per_unit`: as
+    stated with `--units`, else guessed from the rest height) and, where its rest height then lies more than
+    `SIZE_TOLERANCE` from the reference's, to the reference's height (1 for a flat skeleton).
+
+    A model reads clips at its own skeleton's size and trains on clips brought to its first clip's: some
+    features are lengths (the pelvis's height and sway), so read raw, held-out takes 10 % shorter or taller
+    reconstruct with 4.4 and 2.2 cm median joint error instead of 0.49, and a clip in metres is unreadable.
+    """
+    unit = centimetres_per_unit(clip) / centimetres_per_unit(reference)
+    height, reference_height = clip.height() * unit, reference.height()
+    if height <= 0 or reference_height <= 0 or abs(height / reference_height - 1) <= SIZE_TOLERANCE:
+        return unit
+    return unit * reference_height / height
+
+
 def in_units(motion: Motion, unit: str | None) -> Motion:
     """The clip with its length unit stated (a key of `UNITS`), or as it is for None."""
     if unit is None:

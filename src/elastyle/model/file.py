@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from elastyle.core.body import centimetres_per_unit
+from elastyle.core.body import size_factor
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import smooth
@@ -29,9 +29,6 @@ from elastyle.types import FloatArray
 
 FORMAT_VERSION = 1
 PRETRAINED_NAME = "bandai-namco-2.npz"
-# clips within this share of the model skeleton's rest height are read at their own size: the training
-# performers' own spread (the shipped model's: 98.0 to 99.8 cm against its skeleton's 98.0 cm)
-SIZE_TOLERANCE = 0.02
 _WEIGHT_NAMES = ("conv1", "bias1", "conv2", "bias2", "deconv2", "debias2", "deconv1", "debias1")
 
 
@@ -55,18 +52,8 @@ class StyleModel:
         return self.features.skeleton
 
     def size_factor(self, motion: Motion) -> float:
-        """The scale that brings a clip to the model's length unit (`core.body.centimetres_per_unit`: as
-        stated with `--units`, else guessed from the rest height) and, where its rest height then lies more
-        than `SIZE_TOLERANCE` from the model skeleton's, to the model skeleton's height (1 for a flat
-        skeleton). Some features are lengths (the pelvis's height and sway), so the model reads a clip of
-        another size poorly: held-out takes 10 % shorter or taller reconstruct with 4.4 and 2.2 cm median
-        joint error instead of 0.49, a clip in metres is unreadable. Clips are transferred at the model's
-        size, and the output is scaled back."""
-        unit = centimetres_per_unit(motion.skeleton) / centimetres_per_unit(self.skeleton)
-        height, model_height = motion.skeleton.height() * unit, self.skeleton.height()
-        if height <= 0 or model_height <= 0 or abs(height / model_height - 1) <= SIZE_TOLERANCE:
-            return unit
-        return unit * model_height / height
+        """The scale that brings a clip to the model's size (`core.body.size_factor`)."""
+        return size_factor(motion.skeleton, self.skeleton)
 
     def at_model_size(self, motion: Motion) -> tuple[Motion, float]:
         """The clip scaled to the model's size (`size_factor`), and the factor."""

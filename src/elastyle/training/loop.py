@@ -20,8 +20,10 @@ from typing import Any
 
 import numpy as np
 
+from elastyle.core.body import size_factor
 from elastyle.core.mirror import mirror
 from elastyle.core.motion import Motion
+from elastyle.core.skeleton import Skeleton
 from elastyle.errors import ElastyleError, SkeletonMismatchError
 from elastyle.io.dataset import ClipRef, find_clips, is_held_out
 from elastyle.model.autoencoder import Autoencoder
@@ -51,6 +53,13 @@ def load_motions(clips: Sequence[ClipRef], fps: float | None, workers: int = 2) 
     for clip, motion in zip(clips, motions):
         motions[0].skeleton.check_same(motion.skeleton, clips[0].name, clip.name)
     return motions
+
+
+def at_one_size(motions: list[Motion], reference: Skeleton) -> list[Motion]:
+    """Clips brought to the reference skeleton's unit and size (`core.body.size_factor`), as a transfer
+    reads them with the trained model."""
+    factors = [size_factor(m.skeleton, reference) for m in motions]
+    return [m if f == 1.0 else m.scaled(f) for m, f in zip(motions, factors)]
 
 
 def train(
@@ -84,6 +93,7 @@ def train(
     skeleton = train_motions[0].skeleton
     for clip, motion in zip(held_out, val_motions):
         skeleton.check_same(motion.skeleton, training[0].name, clip.name)
+    train_motions, val_motions = at_one_size(train_motions, skeleton), at_one_size(val_motions, skeleton)
     if config.mirror_augment:
         try:
             train_motions = train_motions + [mirror(m) for m in train_motions]
