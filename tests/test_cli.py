@@ -85,7 +85,7 @@ def test_batch_reports_a_bad_clip_and_finishes_the_others(
     assert [line for line in result.stderr.splitlines() if "error" in line] == [
         f"elastyle: error: {bad}: skeleton differs from the model (only in the model: joint_Root, Hips, Spine, Chest, "
         "Neck, Head, Shoulder_L, UpperArm_L ...; only in this clip: pelvis, spine, LeftLeg, LeftFoot, RightLeg, RightFoot); "
-        "for this skeleton, train a model on its clips with 'elastyle train CLIPS -o model.npz' and pass it with "
+        "for this skeleton, train a model on its clips with 'elastyle train CLIPS -o model.npz --minutes 30' and pass it with "
         "--model model.npz"
     ]
     assert sorted(p.name for p in out.iterdir()) == [

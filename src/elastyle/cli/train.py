@@ -4,15 +4,23 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 from typing import Any
 
-from elastyle.errors import ElastyleError, UsageError
+from elastyle.errors import ElastyleError, OutputError, UsageError
 
 log = logging.getLogger("elastyle")
 
 
 def add_train_commands(commands: Any) -> None:
-    trainer = commands.add_parser("train", help="train an autoencoder on BVH clips (needs elastyle[train])")
+    trainer = commands.add_parser(
+        "train",
+        help="train an autoencoder on BVH clips (needs elastyle[train])",
+        description="Train a model for your own skeleton on its BVH clips (every clip one skeleton; other "
+        "units and body sizes are brought to the first clip's). Takes numbered %% 5 == 0 (or, without a "
+        "take number, one name in five by its checksum) are held out to measure the model and set its "
+        "out-of-depth warning. MODEL.npz.ckpt is written as training goes; --resume continues it.",
+    )
     trainer.add_argument("data", nargs="+", help="BVH files, folders, globs or zip archives")
     trainer.add_argument("-o", "--output", required=True, help="model file to write (.npz)")
     trainer.add_argument("--minutes", type=float, help="time budget")
@@ -69,7 +77,7 @@ def add_train_commands(commands: Any) -> None:
         help="weight of a forward-kinematics joint position and velocity loss (default 0, the report's)",
     )
     trainer.add_argument("--threads", type=int, help="torch CPU threads")
-    trainer.add_argument("--no-progress", action="store_true")
+    trainer.add_argument("--no-progress", action="store_true", help="no progress bar")
     trainer.add_argument("--force", action="store_true", help="overwrite an existing model file")
     trainer.set_defaults(run=_command_train)
 
@@ -84,11 +92,66 @@ def add_train_commands(commands: Any) -> None:
     calibrate.set_defaults(run=_command_calibrate)
 
 
-def _command_train(args: argparse.Namespace) -> int:
+def _check_train_args(args: argparse.Namespace) -> None:
+    """Every option's value, before any clip is read: a `UsageError` (exit 2) naming the flag."""
+    if args.minutes is None and args.steps is None:
+        raise UsageError("give a training budget: --minutes or --steps")
+    positive = {"minutes": args.minutes, "lr": args.lr, "window_s": args.window_s, "fps": args.fps}
+    for name, value in positive.items():
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise UsageError(f"--{name.replace('_', '-')} must be a positive number, got {value:g}")
+    counts = {"steps": args.steps, "batch_size": args.batch_size, "hidden": args.hidden,
+              "latent": args.latent, "kernel": args.kernel, "threads": args.threads}  # fmt: skip
+    for name, count in counts.items():
+        if count is not None and count < 1:
+            raise UsageError(f"--{name.replace('_', '-')} must be at least 1, got {count}")
+    if args.kernel % 2 == 0:
+        raise UsageError(
+            f"--kernel must be odd (the convolution is centred on each frame), got {args.kernel}"
+        )
+    for flag in ("reverse_augment", "speed_augment", "perturb_augment"):
+        if not 0 <= getattr(args, flag) <= 1:
+            raise UsageError(f"--{flag.replace('_', '-')} is a share of windows, from 0 to 1")
+    if not 0 <= args.perturb_scale <= 10:
+        raise UsageError("--perturb-scale is in standard deviations, from 0 to 10")
+    if not (math.isfinite(args.position_loss) and args.position_loss >= 0):
+        raise UsageError(f"--position-loss must be 0 or more, got {args.position_loss:g}")
+
+
+def _check_train_outputs(args: argparse.Namespace) -> None:
+    """The model file and its checkpoint, before any work: a `.npz` that replaces none of the inputs, in a
+    folder this process can write to, and no earlier training's checkpoint lost without --force."""
+    import tempfile
+    from pathlib import Path
+
     from elastyle.io.files import check_output_path
+
+    target = Path(args.output)
+    if target.suffix.lower() != ".npz":
+        raise UsageError(f"{args.output}: a model file is written as .npz; give -o MODEL.npz")
+    inputs = (*args.data, *([args.resume] if args.resume else []))
+    check_output_path(target, force=args.force, inputs=inputs)
+    if args.resume is not None and not Path(args.resume).is_file():
+        raise ElastyleError(f"{args.resume}: no such checkpoint (MODEL.npz.ckpt, written as training goes)")
+    checkpoint = Path(str(target) + ".ckpt")
+    resuming_it = args.resume is not None and Path(args.resume).resolve() == checkpoint.resolve()
+    if checkpoint.exists() and not args.force and not resuming_it:
+        raise OutputError(
+            f"{checkpoint}: an earlier training's checkpoint; continue it with --resume {checkpoint}, or "
+            "start over with --force"
+        )
+    try:
+        with tempfile.TemporaryFile(dir=target.parent or "."):
+            pass
+    except OSError as error:
+        raise OutputError(f"{target}: cannot write in {target.parent} ({error.strerror or error})") from None
+
+
+def _command_train(args: argparse.Namespace) -> int:
     from elastyle.model.config import ModelConfig
 
-    check_output_path(args.output, force=args.force)
+    _check_train_args(args)
+    _check_train_outputs(args)
     try:
         import torch
     except ImportError:
@@ -98,13 +161,6 @@ def _command_train(args: argparse.Namespace) -> int:
 
     if args.threads:
         torch.set_num_threads(args.threads)
-    if args.minutes is None and args.steps is None:
-        raise UsageError("give a training budget: --minutes or --steps")
-    for flag in ("reverse_augment", "speed_augment", "perturb_augment"):
-        if not 0 <= getattr(args, flag) <= 1:
-            raise UsageError(f"--{flag.replace('_', '-')} is a share of windows, from 0 to 1")
-    if not 0 <= args.perturb_scale <= 10:
-        raise UsageError("--perturb-scale is in standard deviations, from 0 to 10")
     model_config = ModelConfig(
         hidden_channels=args.hidden,
         latent_channels=args.latent,

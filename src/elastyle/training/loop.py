@@ -62,6 +62,21 @@ def at_one_size(motions: list[Motion], reference: Skeleton) -> list[Motion]:
     return [m if f == 1.0 else m.scaled(f) for m, f in zip(motions, factors)]
 
 
+def _checkpoint(path: str) -> dict[str, Any]:
+    """A training checkpoint's state, or a one-line `ElastyleError` for a file that is not one."""
+    import torch
+
+    try:
+        state = torch.load(path, weights_only=True)
+    except Exception:  # torch raises many kinds for a file that is not its own
+        raise ElastyleError(
+            f"{path}: not a training checkpoint (MODEL.npz.ckpt; a model file .npz cannot be resumed)"
+        ) from None
+    if not isinstance(state, dict) or not {"network", "optimizer", "step", "elapsed_s"} <= set(state):
+        raise ElastyleError(f"{path}: not a training checkpoint (MODEL.npz.ckpt)")
+    return state
+
+
 def train(
     data: Sequence[str],
     output: str,
@@ -77,14 +92,18 @@ def train(
 
     torch.manual_seed(config.seed)
     rng = np.random.default_rng(config.seed)
-    clips = [c for c in find_clips(data) if not any(fnmatch.fnmatch(c.stem, p) for p in exclude)]
+    found = {c.name: c for c in find_clips(data)}  # a clip named twice (its folder and itself) counts once
+    clips = [c for c in found.values() if not any(fnmatch.fnmatch(c.stem, p) for p in exclude)]
     if not clips:
         raise ElastyleError(f"{', '.join(map(str, data))}: every clip is excluded by {', '.join(exclude)}")
     held_out = [c for c in clips if is_held_out(c, config.holdout_every)]
     training = [c for c in clips if not is_held_out(c, config.holdout_every)]
     if not training:
         training, held_out = held_out, []
-    log.info("clips: %d for training, %d held out (by take)", len(training), len(held_out))
+    log.info(
+        "clips: %d for training, %d held out (takes numbered %% %d == 0; names without a take number, one in %d "
+        "by checksum)", len(training), len(held_out), config.holdout_every, config.holdout_every,
+    )  # fmt: skip
     fps = config.fps
     if fps is None:
         fps = training[0].read()[0].fps
@@ -94,6 +113,20 @@ def train(
     for clip, motion in zip(held_out, val_motions):
         skeleton.check_same(motion.skeleton, training[0].name, clip.name)
     train_motions, val_motions = at_one_size(train_motions, skeleton), at_one_size(val_motions, skeleton)
+    # a clip shorter than the convolution holds no window the model can learn from
+    kernel = config.model.kernel_frames
+    short = sum(m.num_frames < kernel for m in [*train_motions, *val_motions])
+    if short:
+        log.warning(
+            "note: %d clip(s) shorter than --kernel %d frames at %g fps are left out", short, kernel, fps
+        )
+        train_motions = [m for m in train_motions if m.num_frames >= kernel]
+        val_motions = [m for m in val_motions if m.num_frames >= kernel]
+    if not train_motions:
+        raise ElastyleError(
+            f"{', '.join(map(str, data))}: no training clip has --kernel {kernel} frames at {fps:g} fps; "
+            "give longer clips"
+        )
     if config.mirror_augment:
         try:
             train_motions = train_motions + [mirror(m) for m in train_motions]
@@ -119,14 +152,21 @@ def train(
     network = TorchAutoencoder(config.model, spec.num_channels)
     pose_positions = PosePositions(spec, mean, std)
     optimizer = torch.optim.Adam(network.parameters(), lr=config.learning_rate)
-    step = 0
+    step = resumed_at = 0
     elapsed_before = 0.0
     checkpoint_path = Path(str(output) + ".ckpt")
     if resume:
-        state = torch.load(resume, weights_only=True)
-        network.load_state_dict(state["network"])
-        optimizer.load_state_dict(state["optimizer"])
+        state = _checkpoint(resume)
+        try:
+            network.load_state_dict(state["network"])
+            optimizer.load_state_dict(state["optimizer"])
+        except (RuntimeError, ValueError, KeyError):
+            raise ElastyleError(
+                f"{resume}: a checkpoint of another model shape or skeleton; resume with the options it was "
+                "trained with (--hidden, --latent, --kernel, --untied, the same clips' skeleton), or start over"
+            ) from None
         step = int(state["step"])
+        resumed_at = step
         elapsed_before = float(state["elapsed_s"])
         rng = np.random.default_rng(config.seed + step)
         log.info("resumed from %s at step %d", resume, step)
@@ -200,7 +240,7 @@ def train(
         "steps": step,
         "training_minutes": round(elapsed / 60, 2),
         "final_train_loss": train_loss,
-        "held_out_loss": val_loss,
+        "held_out_loss": val_loss if math.isfinite(val_loss) else None,  # None: no clip was held out
         "training_clips": len(training),
         "held_out_clips": len(held_out),
         "split": f"held out: takes numbered % {config.holdout_every} == 0 (other names: crc32 % {config.holdout_every} == 0)",
@@ -217,7 +257,12 @@ def train(
     # what it reaches on held-out takes, so a transfer can tell a clip it cannot represent
     metadata.update(calibrate(model, val_motions[:: max(1, len(val_motions) // 300)]))
     save_model(output, model, force=force)
-    log.info("wrote %s after %d steps (%.1f min), held-out loss %.4f", output, step, elapsed / 60, val_loss)
+    measured = (
+        f"held-out loss {val_loss:.4f}" if math.isfinite(val_loss) else "no clip held out to measure it"
+    )
+    log.info("wrote %s after %d steps (%.1f min), %s", output, step, elapsed / 60, measured)
+    if step == resumed_at:
+        log.warning("warning: %s: no training step was taken (the budget was spent before this run)", output)
     return model
 
 
