@@ -483,3 +483,19 @@ def test_train_gives_one_line_for_short_clips_and_foreign_checkpoints(tmp_path: 
                   "--resume", str(clip))  # fmt: skip
     assert result.returncode == 1 and "not a training checkpoint" in result.stderr, result.stderr
     assert result.stderr.count("elastyle: error:") == 1 and "Traceback" not in result.stderr
+
+
+def test_calibrate_measures_held_out_takes_or_every_clip_given(
+    tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
+    import elastyle
+
+    shipped = Path(elastyle.__file__).parent / "pretrained" / "bandai-namco-2.npz"
+    clips = _dataset_copies(
+        tmp_path / "mine", dataset_clips, ["dataset-2_walk_normal_001", "dataset-2_walk_active_002"]
+    )
+    result = _cli("calibrate", str(shipped), *map(str, clips), "-o", str(tmp_path / "m.npz"))
+    assert result.returncode == 1 and "--all measures every clip given" in result.stderr
+    result = _cli("calibrate", str(shipped), *map(str, clips), "-o", str(tmp_path / "m.npz"), "--all")
+    assert result.returncode == 0 and "joint error median" in result.stderr, result.stderr
+    assert (tmp_path / "m.npz").exists()

@@ -87,6 +87,9 @@ def add_train_commands(commands: Any) -> None:
     )
     calibrate.add_argument("model", help="model file (.npz)")
     calibrate.add_argument("data", nargs="+", help="its clips: the held-out takes among them are measured")
+    calibrate.add_argument(
+        "--all", action="store_true", help="measure every clip given (clips the model was not trained on)"
+    )
     calibrate.add_argument("-o", "--output", required=True, help="model file to write")
     calibrate.add_argument("--force", action="store_true", help="overwrite an existing model file")
     calibrate.set_defaults(run=_command_calibrate)
@@ -201,15 +204,19 @@ def _command_calibrate(args: argparse.Namespace) -> int:
 
     check_output_path(args.output, force=args.force, inputs=(args.model,))
     model = load_model(args.model)
-    held_out = [clip for clip in find_clips(args.data) if is_held_out(clip)]
+    held_out = [clip for clip in find_clips(args.data) if args.all or is_held_out(clip)]
     if not held_out:
-        raise ElastyleError(f"{', '.join(args.data)}: no held-out takes to measure")
+        raise ElastyleError(
+            f"{', '.join(args.data)}: no held-out takes to measure (takes numbered % 5 == 0; --all measures "
+            "every clip given)"
+        )
     chosen = held_out[:: max(1, len(held_out) // 300)]
     motions = [clip.read()[0] for clip in chosen]
     for clip, motion in zip(chosen, motions):
         model.check_clip(motion, clip.name)
     figures = calibrate(model, motions)
     save_model(args.output, replace(model, metadata={**model.metadata, **figures}), force=args.force)
-    log.info("wrote %s: held-out joint error %s cm, warning above %.2f cm", args.output,
-             figures["held_out_joint_error_cm"], figures["reconstruction_warn_cm"])  # fmt: skip
+    error = figures["held_out_joint_error_cm"]
+    log.info("wrote %s: held-out joint error median %.2f cm, 95th percentile %.2f cm, warning above %.2f cm",
+             args.output, error["median"], error["p95"], figures["reconstruction_warn_cm"])  # fmt: skip
     return 0

@@ -91,6 +91,9 @@ def default_data_path() -> Path | None:
     return None
 
 
+CLIP_SUFFIXES = (".bvh", ".glb")  # what a folder's clips are
+
+
 def _split_archive(spec: str) -> tuple[str, str] | None:
     """'a/b.zip/inner/x*.bvh' -> ('a/b.zip', 'inner/x*.bvh'); 'a/b.zip' -> ('a/b.zip', '')."""
     parts = Path(spec).parts
@@ -124,7 +127,9 @@ def find_clips(specs: Iterable[str | os.PathLike[str]], pattern: str | None = No
         if archive is not None:
             found = _archive_clips(*archive)
         elif Path(spec).is_dir():
-            found = [ClipRef(str(p)) for p in sorted(Path(spec).rglob("*")) if p.suffix.lower() == ".bvh"]
+            found = [
+                ClipRef(str(p)) for p in sorted(Path(spec).rglob("*")) if p.suffix.lower() in CLIP_SUFFIXES
+            ]
         elif any(c in spec for c in "*?["):
             found = [ClipRef(p) for p in sorted(glob.glob(spec, recursive=True)) if Path(p).is_file()]
         elif Path(spec).exists():
