@@ -499,3 +499,11 @@ def test_calibrate_measures_held_out_takes_or_every_clip_given(
     result = _cli("calibrate", str(shipped), *map(str, clips), "-o", str(tmp_path / "m.npz"), "--all")
     assert result.returncode == 0 and "joint error median" in result.stderr, result.stderr
     assert (tmp_path / "m.npz").exists()
+
+
+def test_a_content_of_another_skeleton_is_named_before_its_style(tmp_path: Path) -> None:
+    content, style = tmp_path / "content.bvh", tmp_path / "style.bvh"
+    content.write_text(GOOD)
+    style.write_text(GOOD)
+    result = _cli("transfer", str(content), "--style", str(style), "-o", str(tmp_path / "x.bvh"))
+    assert result.returncode == 1 and f"{content}: skeleton differs from the model" in result.stderr

@@ -173,6 +173,10 @@ def run_transfer(args: argparse.Namespace) -> int:
     if args.explain:
         check_output_path(args.explain, force=args.force, inputs=(*_inputs(args), *map(str, targets)))
     model = load_model(args.model)
+    if len(args.content) == 1:  # the content's own problems first, before the style's are found
+        from elastyle.io.dataset import read_clip
+
+        model.check_clip(read_clip(args.content[0])[0], args.content[0])
 
     def check(clip: ClipRef, motion: Motion) -> None:
         model.check_clip(motion, clip.name)
