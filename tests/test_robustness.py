@@ -507,3 +507,22 @@ def test_a_content_of_another_skeleton_is_named_before_its_style(tmp_path: Path)
     style.write_text(GOOD)
     result = _cli("transfer", str(content), "--style", str(style), "-o", str(tmp_path / "x.bvh"))
     assert result.returncode == 1 and f"{content}: skeleton differs from the model" in result.stderr
+
+
+def test_content_paths_that_look_like_globs_and_resumed_single_outputs(
+    tmp_path: Path, dataset_clips: list[ClipRef], data_path: Path
+) -> None:
+    walk = _dataset_copies(tmp_path, dataset_clips, ["dataset-2_walk_normal_005"])[0]
+    bracketed = tmp_path / "take[1].bvh"  # a file name with glob characters is read as the file it names
+    bracketed.write_bytes(walk.read_bytes())
+    assert (
+        _cli("transfer", str(bracketed), "--style", str(walk), "-o", str(tmp_path / "a.bvh")).returncode == 0
+    )
+    folder = f"{tmp_path / 'out'}/"
+    assert _cli("transfer", str(walk), "--style", str(walk), "-o", folder).returncode == 0
+    result = _cli("transfer", str(walk), "--style", str(walk), "-o", folder, "--skip-existing")
+    assert result.returncode == 0 and "1 of 1 outputs exist and are skipped" in result.stderr, result.stderr
+    if str(data_path).endswith(".zip"):  # a folder inside the archive names its clips
+        from elastyle.cli.transfer import _content_clips
+
+        assert len(_content_clips([f"{data_path}/bandai-namco-2/data"])) > 100

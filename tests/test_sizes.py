@@ -78,3 +78,15 @@ def test_training_brings_its_clips_to_one_size(walk: Motion) -> None:
     assert sized[0] is walk and sized[3] is taller
     for motion in sized[1:3]:
         np.testing.assert_allclose(motion.translations, walk.translations, rtol=1e-12, atol=1e-9)
+
+
+def test_a_resized_clips_figures_are_at_the_models_size_whether_its_unit_is_stated_or_guessed(
+    model, walk: Motion
+) -> None:  # type: ignore[no-untyped-def]
+    from elastyle.core.body import in_units
+
+    for factor in (0.5, 1.5):
+        large = walk.scaled(factor)
+        assert clip_depth(model, in_units(large, "cm"), "walk")[0] == pytest.approx(
+            clip_depth(model, large, "walk")[0]
+        )

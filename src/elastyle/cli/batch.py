@@ -25,7 +25,7 @@ if TYPE_CHECKING:
 
 log = logging.getLogger("elastyle")
 CONNECT_TIMEOUT_S = 20  # how long to wait for a Dask scheduler to answer
-DASK_RESUBMITS = 100  # cancelled Dask tasks submitted again, in all, before the batch gives up
+DASK_RESUBMITS = 5  # a clip whose Dask task is cancelled this often is given up (one error line)
 
 
 class Job(NamedTuple):
@@ -101,8 +101,15 @@ def _worker_transfer(task: tuple[str, Path]) -> bytes | str:
     return transfer_task(_WORKER_JOB[0], *task)
 
 
+def make_output_folder(targets: list[Path]) -> None:
+    """The outputs' folder, made once the command has checked everything (a refused command leaves none)."""
+    if targets:
+        targets[0].parent.mkdir(exist_ok=True)
+
+
 def run_local(job: Job, contents: list[str], targets: list[Path], jobs: int | None) -> int:
     """Many content clips on `jobs` processes of this computer (every core by default)."""
+    make_output_folder(targets)
     import multiprocessing
     import os
     from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -136,13 +143,14 @@ def run_on_dask(job: Job, contents: list[str], targets: list[Path], address: str
     except (OSError, TimeoutError) as error:
         raise ElastyleError(f"{address}: cannot reach the Dask scheduler ({error})") from None
     with client:
+        make_output_folder(targets)
 
         def scatter() -> Any:
             """One future for the whole job (a tuple given to scatter is scattered field by field)."""
             return client.scatter([job], broadcast=True, hash=False)[0]
 
         shared = [scatter()]
-        resubmits = [0]
+        resubmits: dict[tuple[str, Path], int] = {}  # per clip: how often it was submitted again
 
         def submit(task: tuple[str, Path]) -> Any:
             return client.submit(transfer_task, shared[0], *task, pure=False, retries=2)
@@ -154,14 +162,15 @@ def run_on_dask(job: Job, contents: list[str], targets: list[Path], address: str
             try:
                 return future.result()  # type: ignore[no-any-return]
             except CancelledError:
-                if resubmits[0] >= DASK_RESUBMITS:
-                    raise
-                resubmits[0] += 1
+                task = futures[future]
+                if resubmits.get(task, 0) >= DASK_RESUBMITS:
+                    return f"{task[0]}: cancelled by the Dask scheduler {DASK_RESUBMITS + 1} times; not transferred"
+                resubmits[task] = resubmits.get(task, 0) + 1
                 log.info("a task was cancelled (its worker or the job was lost): submitted again")
                 if shared[0].status != "finished":  # the job went with its workers: scattered anew
                     shared[0] = scatter()
-                again = submit(futures[future])
-                futures[again] = futures[future]
+                again = submit(task)
+                futures[again] = task
                 done.add(again)
                 return None
 

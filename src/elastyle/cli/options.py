@@ -44,13 +44,17 @@ def _shown(value: Any) -> str:
     return str(value) if value != "" else "none"
 
 
-def add_units_flag(parser: argparse.ArgumentParser) -> None:
-    """`--units`: the clips' length unit, where the guess from the rest height would be wrong."""
+def add_units_flag(
+    parser: argparse.ArgumentParser,
+    effect: str = "clips are transferred at the model's size and written at their own, and it scales reported "
+    "figures and .glb output",
+) -> None:
+    """`--units`: the clips' length unit, where the guess from the rest height would be wrong; `effect`
+    says what the command does with it."""
     from elastyle.core.body import UNITS
 
     parser.add_argument(
         "--units", choices=sorted(UNITS),
         help="the clips' length unit (default: guessed from the rest height: metres below 5 units tall, inches "
-        "from 40 to 90, else centimetres); clips are transferred at the model's size and written at their own, "
-        "and it scales reported figures and .glb output",
+        f"from 40 to 90, else centimetres); {effect}",
     )  # fmt: skip

@@ -8,7 +8,7 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from elastyle.cli.batch import Job, require_dask, run_local, run_on_dask, transfer_one
+from elastyle.cli.batch import Job, make_output_folder, require_dask, run_local, run_on_dask, transfer_one
 from elastyle.cli.options import add_config_flags, add_units_flag, config_from_args
 from elastyle.core.motion import Motion
 from elastyle.errors import BvhError, OutputError, UsageError
@@ -115,18 +115,18 @@ def _outputs(args: argparse.Namespace) -> tuple[list[str], list[Path]]:
 
 
 def _content_clips(specs: list[str]) -> list[str]:
-    """The content arguments with folders, globs and zip archives replaced by the clips they hold."""
-    from elastyle.io.dataset import find_clips
+    """The content arguments with folders, globs and zip archives (or folders inside them) replaced by the
+    clips they hold; a clip's own path (a file, or a .bvh or .glb inside an archive) stays as it is."""
+    from elastyle.io.dataset import CLIP_SUFFIXES, find_clips
 
     clips: list[str] = []
     for spec in specs:
         path = Path(spec)
-        many = (
-            path.is_dir()
-            or any(c in spec for c in "*?[")
-            or (spec.lower().endswith(".zip") and path.is_file())
+        pattern = any(c in spec for c in "*?[")
+        one = (path.is_file() and not spec.lower().endswith(".zip")) or (
+            spec.lower().endswith(CLIP_SUFFIXES) and not pattern
         )
-        clips += [clip.name for clip in find_clips([spec])] if many else [spec]
+        clips += [spec] if one else [clip.name for clip in find_clips([spec])]
     return clips
 
 
@@ -169,6 +169,8 @@ def run_transfer(args: argparse.Namespace) -> int:
             f"{', '.join(both)}: both kept (--keep-part) and given another clip (--style-part); give one"
         )
     contents, targets = _outputs(args)
+    if args.scheduler and len(args.content) > 1:
+        require_dask()
     _check_inputs_readable(_inputs(args))
     if args.explain:
         check_output_path(args.explain, force=args.force, inputs=(*_inputs(args), *map(str, targets)))
@@ -206,14 +208,11 @@ def run_transfer(args: argparse.Namespace) -> int:
         style, model, config, second, second_weight, part_styles, args.units, args.force, args.explain,
         _inputs(args),
     )  # fmt: skip
-    if args.scheduler:
-        require_dask()
-    if targets:
-        targets[0].parent.mkdir(exist_ok=True)  # an output folder is made once everything is checked
-    if len(args.content) == 1:
-        transfer_one(job, args.content[0], targets[0])
+    if not contents:  # every output exists and --skip-existing leaves them
         return 0
-    if not contents:
+    if len(args.content) == 1:
+        make_output_folder(targets)
+        transfer_one(job, contents[0], targets[0])
         return 0
     if args.scheduler:
         return run_on_dask(job, contents, targets, args.scheduler)

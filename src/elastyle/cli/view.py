@@ -7,6 +7,7 @@ import logging
 from pathlib import Path
 from typing import Any
 
+from elastyle.cli.options import add_units_flag
 from elastyle.errors import ElastyleError, UsageError
 
 log = logging.getLogger("elastyle")
@@ -31,6 +32,7 @@ def add_view_commands(commands: Any) -> None:
     view.add_argument(
         "--explain", help="JSON from `elastyle transfer --explain`: show each moment's style source"
     )
+    add_units_flag(view, "each clip is drawn in centimetres from it")
     view.set_defaults(run=run_view)
 
     render = commands.add_parser(
@@ -43,13 +45,15 @@ def add_view_commands(commands: Any) -> None:
     render.add_argument("--fps", type=float, help="frame rate (default: the clips', at most 30 for GIF)")
     render.add_argument("--force", action="store_true", help="overwrite an existing output file")
     render.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_units_flag(render, "each clip is drawn in centimetres from it")
     render.set_defaults(run=run_render)
 
 
-def _read_clips(specs: list[str]) -> tuple[list[Any], list[str]]:
+def _read_clips(specs: list[str], units: str | None) -> tuple[list[Any], list[str]]:
+    from elastyle.core.body import in_units
     from elastyle.io.dataset import read_clip
 
-    motions = [read_clip(spec)[0] for spec in specs]
+    motions = [in_units(read_clip(spec)[0], units) for spec in specs]
     return motions, [Path(spec).name for spec in specs]
 
 
@@ -60,7 +64,7 @@ def run_render(args: argparse.Namespace) -> int:
     check_output_path(args.output, force=args.force, inputs=tuple(args.clips))
     if args.fps is not None and not args.fps > 0:
         raise UsageError(f"--fps must be positive, got {args.fps}")
-    motions, labels = _read_clips(args.clips)
+    motions, labels = _read_clips(args.clips, args.units)
     num_frames = render_clips(
         motions, labels, args.output, fps=args.fps, force=args.force, progress=not args.no_progress
     )
@@ -76,7 +80,7 @@ def run_view(args: argparse.Namespace) -> int:
     if args.port is not None and not 0 <= args.port <= 65535:
         raise UsageError(f"--port must lie between 0 and 65535, got {args.port}")
     explain = read_explain(args.explain) if args.explain else None
-    motions, labels = _read_clips(args.clips)
+    motions, labels = _read_clips(args.clips, args.units)
     payload = build_payload(motions, labels, explain)
     if args.port is None:
         try:

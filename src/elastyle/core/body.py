@@ -96,6 +96,18 @@ def size_factor(clip: Skeleton, reference: Skeleton) -> float:
     return unit * reference_height / height
 
 
+def at_size_of(motion: Motion, reference: Skeleton) -> tuple[Motion, float]:
+    """The clip scaled by `size_factor` to the reference skeleton's unit and size, that unit then being
+    the reference's (so figures of it, such as a reconstruction error in cm, are at the reference's size
+    whether the clip's unit was stated or guessed); and the factor."""
+    factor = size_factor(motion.skeleton, reference)
+    if factor == 1.0:
+        return motion, factor
+    scaled = motion.scaled(factor)
+    skeleton = replace(scaled.skeleton, unit_cm=reference.unit_cm)
+    return Motion(skeleton, scaled.rotations, scaled.translations, scaled.fps), factor
+
+
 def in_units(motion: Motion, unit: str | None) -> Motion:
     """The clip with its length unit stated (a key of `UNITS`), or as it is for None."""
     if unit is None:

@@ -150,7 +150,7 @@ class Skeleton:
 
     def scaled(self, factor: float) -> Skeleton:
         """This skeleton `factor` times as large (offsets and End Sites; a stated unit follows, so the same
-        centimetres are meant)."""
+        centimetres are meant; `core.body.at_size_of` sets the reference's instead)."""
         unit_cm = None if self.unit_cm is None else self.unit_cm / factor
         return replace(
             self, offsets=self.offsets * factor, end_sites=self.end_sites * factor, unit_cm=unit_cm

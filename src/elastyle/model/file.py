@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from elastyle.core.body import size_factor
+from elastyle.core.body import at_size_of, size_factor
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import smooth
@@ -57,8 +57,7 @@ class StyleModel:
 
     def at_model_size(self, motion: Motion) -> tuple[Motion, float]:
         """The clip scaled to the model's size (`size_factor`), and the factor."""
-        factor = self.size_factor(motion)
-        return (motion if factor == 1.0 else motion.scaled(factor)), factor
+        return at_size_of(motion, self.skeleton)
 
     def normalise(self, features: FloatArray) -> FloatArray:
         return (features - self.feature_mean) / self.feature_std

@@ -11,6 +11,7 @@ import fnmatch
 import json
 import logging
 import math
+import os
 import time
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -20,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from elastyle.core.body import size_factor
+from elastyle.core.body import at_size_of
 from elastyle.core.mirror import mirror
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
@@ -58,8 +59,7 @@ def load_motions(clips: Sequence[ClipRef], fps: float | None, workers: int = 2) 
 def at_one_size(motions: list[Motion], reference: Skeleton) -> list[Motion]:
     """Clips brought to the reference skeleton's unit and size (`core.body.size_factor`), as a transfer
     reads them with the trained model."""
-    factors = [size_factor(m.skeleton, reference) for m in motions]
-    return [m if f == 1.0 else m.scaled(f) for m, f in zip(motions, factors)]
+    return [at_size_of(m, reference)[0] for m in motions]
 
 
 def _checkpoint(path: str) -> dict[str, Any]:
@@ -92,7 +92,8 @@ def train(
 
     torch.manual_seed(config.seed)
     rng = np.random.default_rng(config.seed)
-    found = {c.name: c for c in find_clips(data)}  # a clip named twice (its folder and itself) counts once
+    # a clip named twice (its folder and itself, or two paths to one file) counts once
+    found = {(os.path.realpath(c.archive or c.name), c.member): c for c in find_clips(data)}
     clips = [c for c in found.values() if not any(fnmatch.fnmatch(c.stem, p) for p in exclude)]
     if not clips:
         raise ElastyleError(f"{', '.join(map(str, data))}: every clip is excluded by {', '.join(exclude)}")
