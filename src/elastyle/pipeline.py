@@ -219,7 +219,12 @@ def transfer(
             for names, entry in zip((part_styles or {}).keys(), part_record["styles"])
         ]
     if size != 1.0:  # back to the content's own size, on its own skeleton
-        motion = Motion(given.skeleton, motion.rotations, motion.translations / size, motion.fps)
+        translations = motion.translations / size
+        given_at = frames_of(given, content_frames)  # where the output is the content, exactly its values
+        exact = strength_out <= 0
+        translations[exact] = given_at.translations[exact]
+        translations[:, kept] = given_at.translations[:, kept]
+        motion = Motion(given.skeleton, motion.rotations, translations, motion.fps)
     record["output_frames"] = motion.num_frames  # as written, at the content's frame rate
     record["output_fps"] = motion.fps
     record["content_reconstruction_cm"] = round(error_cm, 3)
