@@ -249,3 +249,20 @@ def test_a_turning_walk_given_a_straight_walks_style_keeps_its_turning_steps(
         return float(np.abs(out.rotations[span][:, legs] - turn.rotations[span][:, legs]).mean())
 
     assert distance(result.motion) < 0.7 * distance(swapped.motion)
+
+
+def test_a_backward_walk_takes_the_style_played_backwards(model, clips: dict[str, Motion], caplog) -> None:  # type: ignore[no-untyped-def]
+    from elastyle.steps.library import played_backwards
+
+    back, style = played_backwards(clips["walk_normal_005"]), clips["walk_masculine_010"]
+    with caplog.at_level("WARNING"):
+        kept = transfer(back, style, model=model)
+    assert "walks backwards" in caplog.text and "--reverse-style" in caplog.text
+    assert {p["mode"] for p in kept.explain["styles"][0]["patches"]} == {
+        "content"
+    }  # its legs keep walking back
+    styled = transfer(back, style, model=model, reverse_style=True)
+    patches = styled.explain["styles"][0]["patches"]
+    assert all(p["style_backwards"] for p in patches) and {p["mode"] for p in patches} == {"swap"}
+    steps = [cadence_steps_s(m) for m in (back, styled.motion, style)]
+    assert abs(steps[1] - steps[2]) < 0.5 * abs(steps[0] - steps[2])  # the style's timing, walking backwards

@@ -39,7 +39,7 @@ from elastyle.errors import ClipTooShortError, ConfigError, ResultError
 from elastyle.model.depth import depth_warning, reconstruction_error_cm
 from elastyle.model.features import RootPath
 from elastyle.model.file import StyleModel, load_model
-from elastyle.steps.action import action_channels, part_channels
+from elastyle.steps.action import action_channels, part_channels, walks_backwards
 from elastyle.steps.cleanup import adjust_root_speed, clean_feet
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.contacts import detect_contacts
@@ -104,7 +104,7 @@ def transfer(
     working = content.resample(fps)
     if working.num_frames < 2:
         raise ClipTooShortError(f"{content_name}: {content.num_frames} frame(s); a transfer needs at least 2")
-    libraries = [as_library(model, style, style_names, config.mirror_style)]
+    libraries = [as_library(model, style, style_names, config.mirror_style, config.reverse_style)]
     if second_style is not None:
         change = _as_schedule(second_weight)
         if change.times_s[0] >= content.duration_s and change.values[0] == 0:
@@ -112,11 +112,13 @@ def transfer(
                 "note: %s: the change to the second style starts at %g s, after the clip's end (%.2f s): it "
                 "does not show", content_name, change.times_s[0], content.duration_s,
             )  # fmt: skip
-        libraries.append(as_library(model, second_style, second_style_names, config.mirror_style))
+        libraries.append(
+            as_library(model, second_style, second_style_names, config.mirror_style, config.reverse_style)
+        )
     kept = part_joints(content.skeleton, config.kept_parts, content_name)  # (K,) joints kept as performed
     by_part = [
         (part_joints(content.skeleton, parse_parts(names, "--style-part"), content_name),
-         as_library(model, part_style, None, config.mirror_style))
+         as_library(model, part_style, None, config.mirror_style, config.reverse_style))
         for names, part_style in (part_styles or {}).items()
     ]  # fmt: skip
     styled_joints = np.concatenate([joints for joints, _ in by_part]) if by_part else np.zeros(0, np.int64)
@@ -135,6 +137,11 @@ def transfer(
     # whiten, match, place, cross-fade and colour: one track per style library on a content-time grid
     grid = content_grid(working.num_frames)  # (G,) content frames
     actions = action_channels(working)  # (T, A) what the body does, matched beside the latents
+    if not config.reverse_style and walks_backwards(actions):
+        log.warning(
+            "note: %s walks backwards; the style's forward steps will not match its legs, which then keep "
+            "their own action: --reverse-style adds the style clips played backwards", content_name,
+        )  # fmt: skip
     columns = part_channels(working.skeleton)  # each body part's action columns
     tracks = [
         style_track(content_latents, actions, library, grid, config, fps, columns) for library in libraries

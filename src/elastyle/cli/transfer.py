@@ -189,7 +189,12 @@ def run_transfer(args: argparse.Namespace) -> int:
 
     def library(specs: list[str]) -> StyleLibrary:
         return load_library(
-            model, find_clips(specs), config.mirror_style, use_cache=not args.no_cache, check=check
+            model,
+            find_clips(specs),
+            config.mirror_style,
+            use_cache=not args.no_cache,
+            check=check,
+            reverse_style=config.reverse_style,
         )
 
     style = library(args.style)

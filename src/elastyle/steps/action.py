@@ -77,3 +77,12 @@ def sustained_turning(actions: FloatArray, clip_starts: IntArray, fps: float) ->
     for start, end in zip(clip_starts, np.append(clip_starts[1:], len(actions))):
         turning[start:end] = smooth(actions[start:end, TURNING_COLUMN], TURNING_SMOOTH_S * fps)
     return turning
+
+
+BACKWARDS_LEGS_S = 0.3  # forward travel below minus this (legs/s) is walking backwards ...
+BACKWARDS_SHARE = 0.5  # ... and a clip that does so for over this share of its frames walks backwards
+
+
+def walks_backwards(actions: FloatArray) -> bool:
+    """Whether a clip of `action_channels` (T, A) travels backwards, against its heading, most of the time."""
+    return bool(np.mean(actions[:, 0] < -BACKWARDS_LEGS_S) > BACKWARDS_SHARE) if len(actions) else False

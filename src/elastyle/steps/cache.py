@@ -57,9 +57,12 @@ def model_fingerprint(model: StyleModel) -> str:
 CACHE_VERSION = 5
 
 
-def library_key(model: StyleModel, clips: list[ClipRef], mirror_style: bool) -> str:
+def library_key(
+    model: StyleModel, clips: list[ClipRef], mirror_style: bool, reverse_style: bool = False
+) -> str:
+    reverse = ":backwards" if reverse_style else ""  # libraries without reversed clips keep their keys
     digest = hashlib.sha256(
-        f"v{FORMAT_VERSION}.{CACHE_VERSION}:{model_fingerprint(model)}:{mirror_style}".encode()
+        f"v{FORMAT_VERSION}.{CACHE_VERSION}:{model_fingerprint(model)}:{mirror_style}{reverse}".encode()
     )
     for clip in clips:
         digest.update(clip.name.encode())
@@ -73,19 +76,21 @@ def load_library(
     mirror_style: bool,
     use_cache: bool = True,
     check: Callable[[ClipRef, Motion], None] | None = None,
+    reverse_style: bool = False,
 ) -> StyleLibrary:
     """The encoded library of `clips`, from the cache when it holds them, else read, checked by `check`
     (which raises for a clip that cannot be used), encoded and cached."""
-    path = cache_folder() / f"{library_key(model, clips, mirror_style)}.npz"
+    path = cache_folder() / f"{library_key(model, clips, mirror_style, reverse_style)}.npz"
     if use_cache and path.exists():
         try:
             with np.load(path, allow_pickle=False) as archive:
                 latents, actions = archive["latents"], archive["actions"]
                 names = [str(n) for n in archive["names"]]
                 spans = _spans(archive["clip_starts"], len(latents))
+                backwards = [bool(b) for b in archive["backwards"]] if "backwards" in archive else None
                 library = StyleLibrary.of_latents(
                     names, [bool(m) for m in archive["mirrored"]], [latents[a:b] for a, b in spans],
-                    [actions[a:b] for a, b in spans],
+                    [actions[a:b] for a, b in spans], backwards,
                 )  # fmt: skip
             log.debug("style library from cache %s", path)
             os.utime(path)  # recently used: kept longest when the cache is pruned
@@ -96,7 +101,7 @@ def load_library(
     for clip, motion in zip(clips, motions):
         if check is not None:
             check(clip, motion)
-    library = prepare_style(model, motions, [c.name for c in clips], mirror_style)
+    library = prepare_style(model, motions, [c.name for c in clips], mirror_style, reverse_style)
     if use_cache:
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -106,6 +111,7 @@ def load_library(
             np.savez(
                 buffer, latents=library.latents, actions=library.actions, names=np.array(library.names),
                 mirrored=np.array(library.mirrored), clip_starts=library.clip_starts,
+                backwards=np.array(library.backwards, dtype=bool),
             )  # fmt: skip
             write_bytes_atomic(path, buffer.getvalue(), force=True)
             prune_cache(path.parent, cache_limit_bytes(), keep=path)

@@ -73,6 +73,11 @@ class TransferConfig:
         1.0, "0 (the content) to 1 (full style), or keyframes in content seconds such as 0:0,2:1", text=True
     )
     mirror_style: bool = option(True, "add each style clip's mirror to its library")
+    reverse_style: bool = option(
+        False,
+        "add each style clip played backwards to its library, so a content that walks backwards finds the "
+        "style's steps (off by default: forward contents then sometimes take reversed windows)",
+    )
     whiten_floor: float = option(
         0.1,
         "whitening: each latent direction's variance is floored at this fraction of the mean variance, so "

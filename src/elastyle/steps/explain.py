@@ -64,6 +64,7 @@ def explain(
                     "content_start_s": round(patch.content_start / fps, 4),
                     "style_clip": library.names[clip],
                     "style_mirrored": library.mirrored[clip],
+                    "style_backwards": library.backwards[clip],
                     "style_start_frame": frame,
                     "style_frames": track.patch_frames,
                     "stretch": round(patch.content_frames / track.patch_frames, 4),

@@ -27,8 +27,9 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True, eq=False)
 class StyleLibrary:
-    """Encoded style clips: names and mirrored flags (K,), clip_starts (K,) library frames, latents (N, Z)
-    and action descriptors (N, A) (`steps.action`) end to end, and the latents' pooled statistics."""
+    """Encoded style clips: names, mirrored and played-backwards flags (K,), clip_starts (K,) library
+    frames, latents (N, Z) and action descriptors (N, A) (`steps.action`) end to end, and the latents'
+    pooled statistics."""
 
     names: list[str]
     mirrored: list[bool]
@@ -36,6 +37,7 @@ class StyleLibrary:
     latents: FloatArray
     actions: FloatArray
     stats: LatentStats
+    backwards: list[bool] = field(default_factory=list)
     _white: dict[float, FloatArray] = field(default_factory=dict)
     _windows: dict[tuple[int, float, float], StyleWindows] = field(default_factory=dict)
 
@@ -70,12 +72,14 @@ class StyleLibrary:
         mirrored: Sequence[bool],
         latents: Sequence[FloatArray],
         actions: Sequence[FloatArray],
+        backwards: Sequence[bool] | None = None,
     ) -> StyleLibrary:
-        """A library from each clip's latents (T_k, Z) and action descriptors (T_k, A)."""
+        """A library from each clip's latents (T_k, Z) and action descriptors (T_k, A); `backwards`: which
+        clips are played backwards (none by default)."""
         starts = np.cumsum([0] + [z.shape[0] for z in latents[:-1]]).astype(np.int64)
         return StyleLibrary(
             list(names), list(mirrored), starts, np.concatenate(latents), np.concatenate(actions),
-            LatentStats.of(latents),
+            LatentStats.of(latents), list(backwards) if backwards is not None else [False] * len(names),
         )  # fmt: skip
 
 
@@ -91,8 +95,10 @@ def prepare_style(
     motions: Sequence[Motion],
     names: Sequence[str] | None = None,
     mirror_style: bool = True,
+    reverse_style: bool = False,
 ) -> StyleLibrary:
-    """Encode a style library: every clip, plus its mirror when the skeleton allows."""
+    """Encode a style library: every clip, plus its mirror when the skeleton allows, and with
+    `reverse_style` each of those played backwards."""
     names = list(names) if names is not None else [f"style{i}" for i in range(len(motions))]
     clips: list[tuple[str, bool, Motion]] = []
     for name, motion in zip(names, motions):
@@ -104,9 +110,20 @@ def prepare_style(
                 clips.append((name, True, mirror(motion)))
             except SkeletonMismatchError:
                 log.info("%s: no left/right pairs, style used without its mirror", name)
+    backwards = [False] * len(clips)
+    if reverse_style:
+        clips += [(name, mirrored, played_backwards(m)) for name, mirrored, m in clips]
+        backwards += [True] * (len(clips) - len(backwards))
     latents = [model.encode_motion(m)[0] for _, _, m in clips]
     actions = [action_channels(m) for _, _, m in clips]
-    return StyleLibrary.of_latents([c[0] for c in clips], [c[1] for c in clips], latents, actions)
+    return StyleLibrary.of_latents([c[0] for c in clips], [c[1] for c in clips], latents, actions, backwards)
+
+
+def played_backwards(motion: Motion) -> Motion:
+    """The clip played from its last frame to its first (a forward walk becomes a backward one)."""
+    return Motion(
+        motion.skeleton, motion.rotations[::-1].copy(), motion.translations[::-1].copy(), motion.fps
+    )
 
 
 def as_library(
@@ -114,6 +131,7 @@ def as_library(
     style: Motion | Sequence[Motion] | StyleLibrary,
     names: Sequence[str] | None,
     mirror_style: bool,
+    reverse_style: bool = False,
 ) -> StyleLibrary:
     """A prepared library as it is; one clip or several clips encoded into one."""
     if isinstance(style, StyleLibrary):
@@ -121,4 +139,4 @@ def as_library(
     motions = [style] if isinstance(style, Motion) else list(style)
     if not motions:
         raise ElastyleError("no style clips given")
-    return prepare_style(model, motions, names, mirror_style)
+    return prepare_style(model, motions, names, mirror_style, reverse_style)
