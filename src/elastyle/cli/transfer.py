@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 from elastyle.cli.batch import Job, make_output_folder, require_dask, run_local, run_on_dask, transfer_one
 from elastyle.cli.options import add_config_flags, add_units_flag, config_from_args
 from elastyle.core.motion import Motion
-from elastyle.errors import BvhError, OutputError, UsageError
+from elastyle.errors import BvhError, OutputError, SkeletonMismatchError, UsageError
 from elastyle.io.dataset import ClipRef
 from elastyle.steps.config import TransferConfig
 
@@ -159,9 +159,9 @@ def run_transfer(args: argparse.Namespace) -> int:
     config = config_from_args(TransferConfig, args)  # validated once: a bad value is a UsageError
     args.content = _content_clips(args.content)
     _check_style_options(args)
-    _style_parts(args)  # checked before any work
     from elastyle.core.parts import parse_parts
 
+    # --style-part checked before any work, and no part both kept and styled by another clip
     styled = {part for names, _ in _style_parts(args) for part in parse_parts(names, "--style-part")}
     both = sorted(styled & set(config.kept_parts))
     if both:
@@ -175,10 +175,6 @@ def run_transfer(args: argparse.Namespace) -> int:
     if args.explain:
         check_output_path(args.explain, force=args.force, inputs=(*_inputs(args), *map(str, targets)))
     model = load_model(args.model)
-    if len(args.content) == 1:  # the content's own problems first, before the style's are found
-        from elastyle.io.dataset import read_clip
-
-        model.check_clip(read_clip(args.content[0])[0], args.content[0])
 
     def check(clip: ClipRef, motion: Motion) -> None:
         model.check_clip(motion, clip.name)
@@ -197,7 +193,14 @@ def run_transfer(args: argparse.Namespace) -> int:
             reverse_style=config.reverse_style,
         )
 
-    style = library(args.style)
+    try:
+        style = library(args.style)
+    except SkeletonMismatchError:
+        if len(args.content) == 1:  # a content of another skeleton too is named first (read only here)
+            from elastyle.io.dataset import read_clip
+
+            model.check_clip(read_clip(args.content[0])[0], args.content[0])
+        raise
     second = None
     second_weight: Schedule = Schedule.constant(0.0)
     if args.then_style:

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from elastyle.core.body import at_size_of, size_factor
+from elastyle.core.body import at_size_of
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import smooth
@@ -51,12 +51,8 @@ class StyleModel:
     def skeleton(self) -> Skeleton:
         return self.features.skeleton
 
-    def size_factor(self, motion: Motion) -> float:
-        """The scale that brings a clip to the model's size (`core.body.size_factor`)."""
-        return size_factor(motion.skeleton, self.skeleton)
-
     def at_model_size(self, motion: Motion) -> tuple[Motion, float]:
-        """The clip scaled to the model's size (`size_factor`), and the factor."""
+        """The clip scaled to the model's unit and size (`core.body.size_factor`), and the factor."""
         return at_size_of(motion, self.skeleton)
 
     def normalise(self, features: FloatArray) -> FloatArray:
