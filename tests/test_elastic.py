@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from elastyle.steps.search import StyleWindows, sample_windows, search_sequential
+from elastyle.steps.search import StyleWindows, half_shifted, sample_windows, search_sequential
 
 
-def _brute_force_best(library: np.ndarray, valid_starts: list[int], query: np.ndarray) -> tuple[int, float]:
+def _brute_force_best(
+    library: np.ndarray, valid_starts: list[int], query: np.ndarray, step: int = 1
+) -> tuple[int, float]:
     best, best_similarity = -1, -np.inf
-    flat_query = query.ravel() / np.linalg.norm(query)
+    flat_query = query[::step].ravel() / np.linalg.norm(query[::step])
     for start in valid_starts:
-        window = library[start : start + query.shape[0]].ravel()
+        window = library[start : start + query.shape[0]][::step].ravel()
         similarity = float(flat_query @ window / np.linalg.norm(window))
         if similarity > best_similarity:
             best, best_similarity = start, similarity
@@ -45,6 +47,28 @@ def test_batched_float32_search_agrees_with_float64_loop() -> None:
     assert windows.best(queries)[0].tolist() == index.tolist()
 
 
+def test_windows_compared_on_every_other_frame() -> None:
+    rng = np.random.default_rng(2)
+    clip_lengths = [70, 45, 90]
+    library = rng.standard_normal((sum(clip_lengths), 8))
+    starts = np.cumsum([0] + clip_lengths[:-1])
+    content = rng.standard_normal((100, 8))
+    for patch in (12, 13):  # compared frames 0, 2, .., 10 and 0, 2, .., 12
+        windows = StyleWindows(library, starts, patch, frame_step=2)
+        valid = np.flatnonzero(windows.valid).tolist()
+        queries = sample_windows(content, np.arange(0, 80, 7.0), np.full(12, 14.0), patch)
+        index, similarity = windows.best(queries)
+        for q, query in enumerate(queries):
+            expected, expected_similarity = _brute_force_best(library, valid, query, step=2)
+            assert index[q] == expected
+            assert abs(similarity[q] - expected_similarity) < 1e-5
+        reference = windows.similarities(queries, block=1)
+        for block in (2, 3, windows.compared_frames):
+            assert np.allclose(windows.similarities(queries, block=block), reference, atol=1e-5)
+        windows.CHUNK_BYTES, windows.MIN_CHUNK_WINDOWS, windows.BLOCKED_BYTES = 1, 10, 0
+        assert np.allclose(windows.similarities(queries, block=2), reference, atol=1e-5)
+
+
 def test_sequential_search_consumes_the_content_at_the_matched_stretch() -> None:
     rng = np.random.default_rng(1)
     # the style is the content played 1.25 times faster: the search should read about 1.25 L per patch
@@ -55,7 +79,8 @@ def test_sequential_search_consumes_the_content_at_the_matched_stretch() -> None
     style_phase = np.arange(300) * 2 * np.pi / 32
     style = np.stack([np.sin(style_phase), np.cos(style_phase), np.sin(2 * style_phase)], axis=1)
     windows = StyleWindows(style, np.array([0]), 32)
-    patches, shifted = search_sequential(content, windows, np.arange(24, 41))
+    patches = search_sequential(content, windows, np.arange(24, 41))
+    shifted = half_shifted(content, windows, patches)
     stretches = [p.content_frames / 32 for p in patches[:-1]]
     assert abs(float(np.median(stretches)) - 1.25) < 0.07
     assert patches[0].content_start == 0

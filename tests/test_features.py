@@ -116,8 +116,16 @@ def test_smoothing_matches_scipy() -> None:
 
     from elastyle.core.smoothing import smooth
 
-    values = np.random.default_rng(0).normal(size=(50, 4, 3))
-    for sigma in (0.5, 1.0, 7.5):
-        np.testing.assert_allclose(
-            smooth(values, sigma), gaussian_filter1d(values, sigma, axis=0, mode="nearest"), atol=1e-12
-        )
+    short = np.random.default_rng(0).normal(size=(50, 4, 3))
+    long = np.random.default_rng(1).normal(size=(700, 5))  # several of the banded product's blocks
+    for values in (short, long, long[:, 0]):
+        for sigma in (
+            0.5,
+            1.0,
+            7.5,
+            40.0,
+            300.0,
+        ):  # the last two wider than the short clip, the last the long one
+            np.testing.assert_allclose(
+                smooth(values, sigma), gaussian_filter1d(values, sigma, axis=0, mode="nearest"), atol=1e-12
+            )

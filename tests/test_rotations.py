@@ -49,3 +49,15 @@ def test_slerp_halfway() -> None:
     rotvecs = np.array([[[0.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]]])
     middle = slerp_resample(rotvecs, np.array([0.5]))
     np.testing.assert_allclose(middle[0, 0], [0.0, 0.5, 0.0], atol=1e-12)
+
+
+def test_slerp_matches_scipy() -> None:
+    from scipy.spatial.transform import Slerp
+
+    rotvecs = _random_rotvecs(40).reshape(20, 2, 3)
+    times = np.linspace(0, 19, 77)
+    ours = slerp_resample(rotvecs, times)
+    for joint in range(2):
+        expected = Slerp(np.arange(20), Rotation.from_rotvec(rotvecs[:, joint]))(times).as_matrix()
+        np.testing.assert_allclose(to_matrix(ours[:, joint]), expected, atol=1e-9)
+    assert np.all(np.linalg.norm(ours, axis=-1) <= np.pi + 1e-12)

@@ -7,15 +7,16 @@ Each step is one call into the module that owns it; docs/method.md describes eac
     encode      model.file.StyleModel.encode_motion      features -> latents (T, Z)
     check       model.depth                              a warning if the model cannot represent the content
     whiten      steps.whiten.LatentStats.whiten          content and style latents decorrelated
-    match       steps.search.search_sequential / _fixed  elastic patches: stretched content vs style windows
+    match       steps.search.search_sequential / _fixed  elastic patches: stretched content vs style windows,
+                steps.search.half_shifted                and the half-shifted sequence between them
                 steps.track.part_mismatch                per body part, how differently the matched windows act
-    place       steps.track._patch_sample                each patch on the content-time grid
+    place       steps.track._cover, _patch_sample        each patch on the content-time grid
     cross-fade  steps.track.style_track                  two half-shifted patch sequences, triangle weights
     colour      steps.whiten.LatentStats.colour          the style's statistics
     retime      steps.timeline                           strength and styles mixed; the output's time map
     decode      steps.decode                             latents -> `Motion`; residual: the content composed
                                                          with the style's change (strength 0 = the content)
-    clean up    steps.cleanup.clean_feet                 feet planted by two-joint leg IK
+    clean up    steps.cleanup.plant_feet                 feet planted by two-joint leg IK, the root following
     keep        steps.keep                               body parts kept as the content performs them: those
                                                          the user names, and legs and spine where the
                                                          matched windows do another action
@@ -40,9 +41,8 @@ from elastyle.model.depth import depth_warning, reconstruction_error_cm
 from elastyle.model.features import RootPath
 from elastyle.model.file import StyleModel, load_model
 from elastyle.steps.action import action_channels, part_channels, walks_backwards
-from elastyle.steps.cleanup import adjust_root_speed, clean_feet
+from elastyle.steps.cleanup import plant_feet
 from elastyle.steps.config import TransferConfig
-from elastyle.steps.contacts import detect_contacts
 from elastyle.steps.decode import (
     blend_by_strength,
     compose_residual,
@@ -253,11 +253,7 @@ def _decoded(
 
 def _clean_up(motion: Motion, config: TransferConfig) -> Motion:
     """Feet planted, after the root has taken its share of the stance feet's drift."""
-    contacts = None  # found by clean_feet from its own forward kinematics
-    if config.root_follows_legs > 0:
-        contacts = detect_contacts(motion)
-        motion = adjust_root_speed(motion, contacts, config.root_follows_legs)
-    return clean_feet(motion, contacts)
+    return plant_feet(motion, config.root_follows_legs)
 
 
 def _check_finite(motion: Motion, step: str, content_name: str) -> None:

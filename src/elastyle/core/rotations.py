@@ -163,22 +163,33 @@ def continuous_quats(quats: FloatArray, axis: int = 0) -> FloatArray:
 
 
 def continuous_log(rotvecs: FloatArray, axis: int = 0) -> FloatArray:
-    """Exp maps (T, ..., 3) made continuous along time: angles may exceed pi where that avoids a jump."""
-    quats = continuous_quats(to_quat(rotvecs), axis=axis)
-    # Keep the whole sequence on the hemisphere of its mean so most angles stay below pi.
-    mean = np.sum(quats, axis=axis, keepdims=True)
-    sign = np.where(np.sum(mean * quats, axis=-1, keepdims=True).sum(axis=axis, keepdims=True) < 0, -1.0, 1.0)
-    return from_quat(quats * sign)
+    """Exp maps (T, ..., 3) made continuous along time from the first frame's angle in [0, pi]: later angles
+    may exceed pi where that avoids a jump."""
+    return continuous_log_of_quats(to_quat(rotvecs), axis)
+
+
+def continuous_log_of_quats(quats: FloatArray, axis: int = 0) -> FloatArray:
+    """Quaternions (T, ..., 4) as exp maps (T, ..., 3) continuous along time (see `continuous_log`)."""
+    first = np.take(quats, [0], axis=axis)[..., 3:4]  # (1, ..., 1) the first frame's w
+    return from_quat(continuous_quats(np.where(first < 0, -quats, quats), axis=axis))
 
 
 def slerp_resample(rotvecs: FloatArray, times: FloatArray) -> FloatArray:
-    """Sample rotations (T, J, 3) at fractional frame indices `times` (N,) in [0, T-1] by slerp -> (N, J, 3)."""
+    """Sample rotations (T, J, 3) at fractional frame indices `times` (N,) in [0, T-1] by slerp -> (N, J, 3)
+    (the shorter way between neighbouring frames; angles in [0, pi])."""
     num_frames = rotvecs.shape[0]
     times = np.clip(times, 0.0, num_frames - 1)
     lower = np.minimum(np.floor(times).astype(np.int64), max(num_frames - 2, 0))  # (N,)
     upper = np.minimum(lower + 1, num_frames - 1)
     weight = (times - lower)[:, None, None]  # (N, 1, 1)
-    start = rotvecs[lower]  # (N, J, 3)
-    # relative rotation from start to end (the shorter way), scaled by the weight, applied after start
-    delta = multiply(inverse(start), rotvecs[upper])
-    return multiply(start, delta * weight)
+    quats = to_quat(rotvecs)  # (T, J, 4)
+    start, end = quats[lower], quats[upper]  # (N, J, 4)
+    cosine = np.sum(start * end, axis=-1, keepdims=True)  # (N, J, 1)
+    end = np.where(cosine < 0, -end, end)  # the shorter way
+    angle = np.arccos(np.minimum(np.abs(cosine), 1.0))  # half the angle between them
+    sine = np.sin(angle)
+    near = sine < 1e-9  # (nearly) the same rotation: linear weights, then normalised
+    sine = np.where(near, 1.0, sine)
+    start_weight = np.where(near, 1 - weight, np.sin((1 - weight) * angle) / sine)
+    end_weight = np.where(near, weight, np.sin(weight * angle) / sine)
+    return canonical_log(start_weight * start + end_weight * end)

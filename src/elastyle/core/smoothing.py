@@ -12,7 +12,8 @@ def smooth(values: FloatArray, sigma_frames: float) -> FloatArray:
     """Gaussian low-pass along time (axis 0) of (T, ...) values; edges held constant.
 
     The same as scipy.ndimage.gaussian_filter1d(values, sigma, axis=0, mode="nearest") (a test checks),
-    written here because importing scipy.ndimage costs about 0.6 s, more than a whole transfer.
+    written here because importing scipy.ndimage costs about 0.6 s, more than a whole transfer. A kernel
+    wider than the clip (a local mean over seconds) is one (T, T) matrix product, the held edges folded in.
     """
     if sigma_frames <= 0 or values.shape[0] < 2:
         return values.copy()
@@ -21,9 +22,24 @@ def smooth(values: FloatArray, sigma_frames: float) -> FloatArray:
     kernel = np.exp(-0.5 * (offsets / sigma_frames) ** 2)
     kernel /= kernel.sum()
     flat = values.reshape(values.shape[0], -1)  # (T, N)
+    if values.shape[0] <= radius + 1:
+        return (_covering_weights(kernel, values.shape[0]) @ flat).reshape(values.shape)
     padded = np.pad(flat, ((radius, radius), (0, 0)), mode="edge")  # (T + 2r, N)
     windows = np.lib.stride_tricks.sliding_window_view(padded, 2 * radius + 1, axis=0)  # (T, N, K)
     return (windows @ kernel).reshape(values.shape)
+
+
+def _covering_weights(kernel: FloatArray, num_frames: int) -> FloatArray:
+    """(T, T) weights of a kernel (2r + 1,) of radius r >= T - 1 on a clip of T frames, edges held: row t
+    reads frame s at kernel[r + s - t], and the first and last frames also take the kernel beyond them."""
+    radius = len(kernel) // 2
+    views = np.lib.stride_tricks.sliding_window_view(kernel, num_frames)  # (2r + 2 - T, T)
+    weights = views[radius - num_frames + 1 : radius + 1][::-1].copy()  # row t: kernel[r - t : r - t + T]
+    below = np.concatenate([[0.0], np.cumsum(kernel)])  # below[i]: the kernel's sum before index i
+    rows = np.arange(num_frames)
+    weights[:, 0] += below[radius - rows]  # the frames before the clip, held at its first
+    weights[:, -1] += below[-1] - below[num_frames + radius - rows]  # after it, held at its last
+    return weights
 
 
 def moving_sum(values: FloatArray, width: int) -> FloatArray:

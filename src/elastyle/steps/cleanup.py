@@ -10,6 +10,7 @@ import numpy as np
 from elastyle.core.body import Limbs, find_limbs, leg_length
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import lengths
+from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import smooth
 from elastyle.steps.contacts import detect_contacts, ground_level, mask_runs, pivots
 from elastyle.steps.leg_ik import is_below, leg_ik
@@ -21,7 +22,30 @@ ROOT_TOLERANCE_OF_PATH = 0.1  # the adjusted root strays at most this fraction o
 SOFT_REACH = 0.995  # IK straightens a knee up to this fraction of the leg's reach before lowering the pelvis
 
 
-def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float = 0.15) -> Motion:
+def plant_feet(motion: Motion, root_share: float) -> Motion:
+    """The whole clean-up: contacts found, the root moved by `root_share` of the stance feet's drift
+    (`adjust_root_speed`, skipped at 0), then the feet pinned (`clean_feet`). One forward kinematics pass
+    serves all three: moving the root moves the legs with it and turns nothing."""
+    skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
+    if len(limbs.toes) == 0 or root_share <= 0:
+        return clean_feet(motion)
+    world_rotations, positions = motion.world(limbs.feet)
+    contacts = detect_contacts(motion, positions)
+    shift = _root_shift(motion, contacts, (world_rotations, positions), root_share)  # (T, 3) world
+    moved = Motion(
+        skeleton, motion.rotations.copy(), _shift_pelvis(motion, world_rotations, shift), motion.fps
+    )
+    positions = positions.copy()
+    positions[:, _carried_by_pelvis(skeleton, limbs)] += shift[:, None]
+    return clean_feet(moved, contacts, world=(world_rotations, positions))
+
+
+def clean_feet(
+    motion: Motion,
+    contacts: BoolArray | None = None,
+    blend_s: float = 0.15,
+    world: tuple[FloatArray, FloatArray] | None = None,
+) -> Motion:
     """Pin each planted foot in place with two-joint IK; a new Motion (same skeleton, fps and frames).
 
     contacts: (T, F) from `detect_contacts` (detected here when None). During a contact the foot is held
@@ -31,11 +55,13 @@ def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float
     a step's swing. Anywhere, a toe or ankle below `ground_level` is lifted to it. Feet keep their world
     orientation; hip and knee turn in the original knee plane; the pelvis is lowered (smoothly) only
     where a leg cannot reach. Only leg rotations and the pelvis height change: bone lengths stay exact.
+    world: the clip's world rotations and positions (`Motion.world`) of the feet and their ancestors, when
+    already known.
     """
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
         return Motion(skeleton, motion.rotations.copy(), motion.translations.copy(), motion.fps)
-    world_rotations, positions = motion.world(limbs.feet)  # the legs and what they hang from
+    world_rotations, positions = motion.world(limbs.feet) if world is None else world  # legs and their roots
     contacts = detect_contacts(motion, positions) if contacts is None else _checked(contacts, motion, limbs)
     leg = leg_length(skeleton, limbs)
     ground = ground_level(motion, positions)
@@ -61,11 +87,8 @@ def clean_feet(motion: Motion, contacts: BoolArray | None = None, blend_s: float
         shift = np.zeros((motion.num_frames, 3))
         shift[:, 1] = -lowering
         translations = _shift_pelvis(motion, world_rotations, shift)
-        carried = [
-            j for j in skeleton.with_ancestors(limbs.feet).tolist() if is_below(skeleton, j, skeleton.pelvis)
-        ]
         positions = positions.copy()
-        positions[:, carried] += shift[:, None]
+        positions[:, _carried_by_pelvis(skeleton, limbs)] += shift[:, None]
     # 3. two-joint IK, every leg at once; only frames whose ankle has to move change (elsewhere the input stays exact)
     chains = chains[legs]
     moved = lengths(targets[:, legs] - positions[:, chains[:, 2]]) > 1e-9 * leg  # (T, F_legs)
@@ -95,9 +118,27 @@ def adjust_root_speed(
     """
     limbs = find_limbs(motion.skeleton)
     contacts = _checked(contacts, motion, limbs)
+    world = motion.world(limbs.feet)
+    shift = _root_shift(motion, contacts, world, share, smooth_s, tolerance)
+    return Motion(
+        motion.skeleton, motion.rotations.copy(), _shift_pelvis(motion, world[0], shift), motion.fps
+    )
+
+
+def _root_shift(
+    motion: Motion,
+    contacts: BoolArray,
+    world: tuple[FloatArray, FloatArray],
+    share: float,
+    smooth_s: float = 0.2,
+    tolerance: float = ROOT_TOLERANCE_OF_PATH,
+) -> FloatArray:
+    """(T, 3) world: how `adjust_root_speed` moves the pelvis, from the clip's world rotations and
+    positions of the feet and their ancestors (`Motion.world`)."""
+    limbs = find_limbs(motion.skeleton)
     if motion.num_frames < 2 or contacts.shape[1] == 0:
-        return Motion(motion.skeleton, motion.rotations.copy(), motion.translations.copy(), motion.fps)
-    world_rotations, positions = motion.world(limbs.feet)
+        return np.zeros((motion.num_frames, 3))
+    positions = world[1]
     points, weights = pivots(positions, limbs, leg_length(motion.skeleton, limbs))  # (T, F, 2, 3), (T, F, 2)
     planted = (contacts[1:] & contacts[:-1])[..., None] * 0.5 * (weights[1:] + weights[:-1])  # (T-1, F, 2)
     steps = np.sum(planted[..., None] * np.diff(points, axis=0), axis=(1, 2))  # (T-1, 3)
@@ -109,9 +150,12 @@ def adjust_root_speed(
     furthest = np.max(lengths(shift), initial=0.0)
     if furthest > tolerance * path:
         shift *= tolerance * path / furthest
-    return Motion(
-        motion.skeleton, motion.rotations.copy(), _shift_pelvis(motion, world_rotations, shift), motion.fps
-    )
+    return shift
+
+
+def _carried_by_pelvis(skeleton: Skeleton, limbs: Limbs) -> list[int]:
+    """The feet and their ancestors that move with the pelvis (the pelvis and the joints below it)."""
+    return [j for j in skeleton.with_ancestors(limbs.feet).tolist() if is_below(skeleton, j, skeleton.pelvis)]
 
 
 def _checked(contacts: BoolArray, motion: Motion, limbs: Limbs) -> BoolArray:

@@ -91,6 +91,13 @@ class TransferConfig:
         "matching)",
         low=0.0, high=100.0,
     )  # fmt: skip
+    match_step_s: float = option(
+        0.0,
+        "matching compares a content patch and a style window on frames this far apart, seconds (0: every "
+        "frame; 1/15, every other frame at 30 fps, halves the search's arithmetic for a long style library "
+        "but picks other windows among near-equal ones: the referee's walk timing error rose from 0.06 to 0.16)",
+        low=0.0, high=1.0,
+    )  # fmt: skip
     fallback_below: float = option(
         -1.0,
         "where the best style window's similarity (cosine, -1 to 1) is below this, the style's statistics "
@@ -194,6 +201,10 @@ class TransferConfig:
     def strength_schedule(self) -> Schedule:
         text = self.strength if isinstance(self.strength, str) else str(float(self.strength))
         return Schedule.parse(text, "strength")
+
+    def match_frame_step(self, fps: float) -> int:
+        """`match_step_s` in frames at `fps` (at least 1)."""
+        return max(1, int(round(self.match_step_s * fps)))
 
     def source_lengths(self, patch_frames: int, fps: float, tempo: float = 1.0) -> IntArray:
         """Candidate source lengths L' (frames) for a patch of L frames: (1 - stretch) to (1 + stretch)

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from elastyle.core.motion import Motion
-from elastyle.core.rotations import canonical_log, continuous_log, multiply, quat_multiply, to_quat
+from elastyle.core.rotations import canonical_log, continuous_log_of_quats, multiply, quat_multiply, to_quat
 from elastyle.core.smoothing import smooth
 from elastyle.model.features import RootPath
 from elastyle.model.file import StyleModel
@@ -65,8 +65,8 @@ def compose_residual(
     styled_at, base_at: the decoded clips read at the output's N frames (`frames_of` at their positions);
     content_at: the content read at its N frames; strength (N,) in [0, 1]: how far E is low-passed.
     """
-    error_rotations = continuous_log(
-        canonical_log(quat_multiply(to_quat(-base_at.rotations), to_quat(content_at.rotations)))
+    error_rotations = continuous_log_of_quats(
+        quat_multiply(to_quat(-base_at.rotations), to_quat(content_at.rotations))
     )  # (N, J, 3)
     error_translations = content_at.translations - base_at.translations  # (N, J, 3)
     sigma = residual_smooth_s * content_at.fps
@@ -102,8 +102,10 @@ def blend_by_strength(before: Motion, after: Motion, strength: FloatArray) -> Mo
         return after
     weight = np.clip(strength, 0.0, 1.0)
     weight = (weight[:, None] if weight.ndim == 1 else weight)[:, :, None]  # (T, 1 or J, 1)
-    change = canonical_log(quat_multiply(to_quat(-before.rotations), to_quat(after.rotations)))
-    rotations = multiply(before.rotations, weight * change)
+    before_quats = to_quat(before.rotations)  # (T, J, 4); its conjugate is the inverse
+    inverse = before_quats * np.array([-1.0, -1.0, -1.0, 1.0])
+    change = canonical_log(quat_multiply(inverse, to_quat(after.rotations)))
+    rotations = canonical_log(quat_multiply(before_quats, to_quat(weight * change)))
     rotations = np.where(weight >= 1, after.rotations, np.where(weight <= 0, before.rotations, rotations))
     translations = before.translations + weight * (after.translations - before.translations)
     return Motion(after.skeleton, rotations, translations, after.fps)

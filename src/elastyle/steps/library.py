@@ -39,7 +39,7 @@ class StyleLibrary:
     stats: LatentStats
     backwards: list[bool] = field(default_factory=list)
     _white: dict[float, FloatArray] = field(default_factory=dict)
-    _windows: dict[tuple[int, float, float], StyleWindows] = field(default_factory=dict)
+    _windows: dict[tuple[int, float, float, int], StyleWindows] = field(default_factory=dict)
 
     def white(self, floor: float) -> FloatArray:
         """The library's latents (N, Z) whitened with its own pooled statistics (eigenvalue `floor`)."""
@@ -47,13 +47,15 @@ class StyleLibrary:
             self._white[floor] = self.stats.whiten(self.latents, floor)
         return self._white[floor]
 
-    def windows(self, patch_frames: int, floor: float, action_weight: float) -> StyleWindows:
-        """The library's windows of `patch_frames` as the search compares them: whitened latents beside
-        the action descriptors times `action_weight` (`match_frames`)."""
-        key = (patch_frames, floor, action_weight)
+    def windows(
+        self, patch_frames: int, floor: float, action_weight: float, frame_step: int = 1
+    ) -> StyleWindows:
+        """The library's windows of `patch_frames` as the search compares them (on every `frame_step`-th
+        frame): whitened latents beside the action descriptors times `action_weight` (`match_frames`)."""
+        key = (patch_frames, floor, action_weight, frame_step)
         if key not in self._windows:
             frames = match_frames(self.white(floor), self.actions, action_weight)
-            self._windows[key] = StyleWindows(frames, self.clip_starts, patch_frames)
+            self._windows[key] = StyleWindows(frames, self.clip_starts, patch_frames, frame_step)
         return self._windows[key]
 
     def locate(self, library_frame: int) -> tuple[int, int]:

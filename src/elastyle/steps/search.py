@@ -79,6 +79,10 @@ class StyleWindows:
     (Q * ceil(L/B)): it is chosen per call from the number of queries. The library is processed in chunks,
     so the products stay a few megabytes.
 
+    frame_step: windows are compared on every `frame_step`-th frame of theirs (frames n, n + s, ... of
+    window n; the queries' frames 0, s, ...): latents change little from one frame to the next, so a step
+    of 2 finds the same windows for half the arithmetic.
+
     valid: (N,) False for windows that would cross from one library clip into the next.
     """
 
@@ -87,13 +91,18 @@ class StyleWindows:
     MIN_CHUNK_WINDOWS = 256  # ... but at least this many windows per chunk
     BLOCKED_BYTES = 64 << 20  # the largest block-row copy of the library kept in memory
 
-    def __init__(self, white_library: FloatArray, clip_starts: IntArray, patch_frames: int) -> None:
+    def __init__(
+        self, white_library: FloatArray, clip_starts: IntArray, patch_frames: int, frame_step: int = 1
+    ) -> None:
         total = white_library.shape[0]
         self.patch_frames = patch_frames
+        self.frame_step = frame_step
         self.frames: Float32Array = np.ascontiguousarray(white_library, dtype=np.float32)  # (T_s, Z)
         self.num_windows = max(total - patch_frames + 1, 0)
-        energy = np.concatenate([[0.0], np.cumsum(np.sum(white_library.astype(np.float64) ** 2, axis=1))])
-        norms = np.sqrt(np.maximum(energy[patch_frames:] - energy[:-patch_frames], 0.0))  # (N,)
+        energy = np.sum(white_library.astype(np.float64) ** 2, axis=1)  # (T_s,)
+        norms = np.sqrt(
+            sum(energy[k : k + self.num_windows] for k in range(0, patch_frames, frame_step))
+        )  # (N,) over the frames compared
         self.inverse_norms: Float32Array = (1.0 / np.maximum(norms, 1e-8)).astype(np.float32)
         ends = np.append(clip_starts[1:], total)
         valid = np.zeros(self.num_windows, dtype=bool)
@@ -103,20 +112,25 @@ class StyleWindows:
         self._invalid: BoolArray = ~valid
         self._blocked: dict[int, Float32Array] = {}
 
+    @property
+    def compared_frames(self) -> int:
+        """Frames of a window that are compared: every `frame_step`-th of its L."""
+        return -(-self.patch_frames // self.frame_step)
+
     def block_frames(self, num_queries: int) -> int:
-        """Frames per block B for a call with this many queries: the fewest giving at most `PRODUCT_ROWS`
-        query-block rows (so many queries get whole windows, B = L)."""
-        length = self.patch_frames
+        """Compared frames per block B for a call with this many queries: the fewest giving at most
+        `PRODUCT_ROWS` query-block rows (so many queries get whole windows)."""
+        length = self.compared_frames
         for block in range(1, length + 1):
             if num_queries * -(-length // block) <= self.PRODUCT_ROWS:
                 return block
         return length
 
     def block_columns(self, block: int, first: int, stop: int) -> Float32Array:
-        """Library rows [first, stop) as B-frame blocks, one per column: column n holds frames n .. n+B-1
-        (B*Z, stop - first), zeros past the library's end (columns make the products' small-row GEMM
-        faster than rows would). The whole copy is cached when it is at most `BLOCKED_BYTES`; otherwise
-        columns are built per call (for many queries, whose product costs more)."""
+        """Library rows [first, stop) as B-frame blocks, one per column: column n holds frames n, n + s, ..
+        n + s(B - 1) for the frame step s (B*Z, stop - first), zeros past the library's end (columns make
+        the products' small-row GEMM faster than rows would). The whole copy is cached when it is at most
+        `BLOCKED_BYTES`; otherwise columns are built per call (for many queries, whose product costs more)."""
         if block * self.frames.nbytes > self.BLOCKED_BYTES:
             return self._build_columns(block, first, stop)
         if block not in self._blocked:
@@ -125,17 +139,20 @@ class StyleWindows:
 
     def _build_columns(self, block: int, first: int, stop: int) -> Float32Array:
         total, width = self.frames.shape
-        frames = self.frames[first : min(stop + block - 1, total)]
-        padding = stop + block - 1 - first - frames.shape[0]
+        reach = self.frame_step * (block - 1) + 1  # library frames a block spans
+        frames = self.frames[first : min(stop + reach - 1, total)]
+        padding = stop + reach - 1 - first - frames.shape[0]
         if padding > 0:
             frames = np.concatenate([frames, np.zeros((padding, width), np.float32)])
-        rows = np.lib.stride_tricks.sliding_window_view(frames, block, axis=0)  # (stop - first, Z, B)
+        rows = np.lib.stride_tricks.sliding_window_view(frames, reach, axis=0)  # (stop - first, Z, reach)
+        rows = rows[:, :, :: self.frame_step]  # (stop - first, Z, B)
         return np.ascontiguousarray(rows.transpose(2, 1, 0)).reshape(block * width, stop - first)
 
     def _similarity_chunks(
         self, queries: FloatArray, block: int | None
     ) -> Iterator[tuple[int, int, Float32Array]]:
         """(first, last, cosine similarity (Q, last - first) of the queries with windows first..last-1)."""
+        queries = queries[:, :: self.frame_step]  # the compared frames
         count, length, width = queries.shape
         block = block or self.block_frames(count)
         num_blocks = -(-length // block)
@@ -144,20 +161,21 @@ class StyleWindows:
         unit[:, :length] = queries
         unit /= np.maximum(np.sqrt(np.einsum("qfz,qfz->q", unit, unit)), 1e-8)[:, None, None]
         query_blocks = unit.reshape(count * num_blocks, block * width)
-        span = (num_blocks - 1) * block  # window n's last block starts at library frame n + span
+        shift = block * self.frame_step  # library frames from one block of a window to its next
+        span = (num_blocks - 1) * shift  # window n's last block starts at library frame n + span
         # the products, and block columns built per chunk, stay within CHUNK_BYTES each
         chunk = max(self.MIN_CHUNK_WINDOWS, self.CHUNK_BYTES // (4 * max(count * num_blocks, block * width)))
         for first in range(0, self.num_windows, chunk):
             last = min(first + chunk, self.num_windows)
             columns = self.block_columns(block, first, last + span)  # (B*Z, last - first + span)
             products = query_blocks @ columns  # (Q * num_blocks, last - first + span)
-            # window n's block b is library row n + bB: a strided view (Q, num_blocks, n) of the products
+            # window n's block b is library row n + bsB: a strided view (Q, num_blocks, n) of the products
             item, row = products.itemsize, products.shape[1]
             shifted = np.ndarray(  # as_strided's view without its Python overhead (tens of us per call)
                 (count, num_blocks, last - first),
                 products.dtype,
                 buffer=products,
-                strides=(num_blocks * row * item, (row + block) * item, item),
+                strides=(num_blocks * row * item, (row + shift) * item, item),
             )
             dots = shifted.sum(axis=1)  # (Q, last - first), a new array
             dots *= self.inverse_norms[first:last]
@@ -165,9 +183,10 @@ class StyleWindows:
             yield first, last, dots
 
     def similarities(self, queries: FloatArray, block: int | None = None) -> Float32Array:
-        """Cosine similarity (Q, N) of queries (Q, L, Z) with every window; -inf where a window is invalid.
+        """Cosine similarity (Q, N) of queries (Q, L, Z) with every window (over the compared frames); -inf
+        where a window is invalid.
 
-        block: frames per block B (default: `block_frames`); any B from 1 to L gives the same result.
+        block: compared frames per block B (default: `block_frames`); any B gives the same result.
         """
         chunks = [dots for _, _, dots in self._similarity_chunks(queries, block)]
         return np.concatenate(chunks, axis=1) if chunks else np.zeros((len(queries), 0), np.float32)
@@ -191,8 +210,8 @@ class StyleWindows:
 
 def search_sequential(
     white_content: FloatArray, windows: StyleWindows, source_lengths: IntArray
-) -> tuple[list[Patch], list[Patch]]:
-    """Greedy sequential elastic search: (elastic patches, half-shifted patches)."""
+) -> list[Patch]:
+    """Greedy sequential elastic search: the elastic patches (their half-shifted sequence: `half_shifted`)."""
     patch_frames = windows.patch_frames
     num_frames = white_content.shape[0]
     patches: list[Patch] = []
@@ -207,15 +226,14 @@ def search_sequential(
             Patch(cursor, float(source_lengths[choice]), int(index[choice]), float(similarity[choice]))
         )
         cursor += float(source_lengths[choice])
-    return patches, _half_shifted(white_content, windows, patches)
+    return patches
 
 
-def search_fixed(
-    white_content: FloatArray, windows: StyleWindows, source_lengths: IntArray
-) -> tuple[list[Patch], list[Patch]]:
+def search_fixed(white_content: FloatArray, windows: StyleWindows, source_lengths: IntArray) -> list[Patch]:
     """The literal placement: patches on the content's own grid, stretch used only for matching.
 
-    Every patch is known beforehand, so all patches and stretches are searched in one batch.
+    Every patch is known beforehand, so all patches and stretches are searched in one batch (their
+    half-shifted sequence: `half_shifted`).
     """
     patch_frames = windows.patch_frames
     num_patches = max(1, int(np.ceil(white_content.shape[0] / patch_frames)))
@@ -226,14 +244,13 @@ def search_fixed(
     index, similarity = (a.reshape(num_patches, -1) for a in windows.best(queries))  # (P, S)
     choice = np.argmax(similarity, axis=1)
     # placed at the content's grid: consumes exactly L content frames whatever the stretch
-    patches = [
+    return [
         Patch(i * patch_frames, float(patch_frames), int(index[i, c]), float(similarity[i, c]))
         for i, c in enumerate(choice)
     ]
-    return patches, _half_shifted(white_content, windows, patches)
 
 
-def _half_shifted(white_content: FloatArray, windows: StyleWindows, patches: list[Patch]) -> list[Patch]:
+def half_shifted(white_content: FloatArray, windows: StyleWindows, patches: list[Patch]) -> list[Patch]:
     """Patches from the centre of each patch to the centre of the next (fixed length), searched without stretch."""
     spans = [
         (a.content_start + a.content_frames / 2, (a.content_frames + b.content_frames) / 2)

@@ -19,9 +19,16 @@ from elastyle.steps.action import TURNING_COLUMN, sustained_turning
 from elastyle.steps.arms import arm_mismatch, back_and_forth
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.library import StyleLibrary, match_frames
-from elastyle.steps.search import Patch, mean_gap, patch_windows, search_fixed, search_sequential
+from elastyle.steps.search import (
+    Patch,
+    half_shifted,
+    mean_gap,
+    patch_windows,
+    search_fixed,
+    search_sequential,
+)
 from elastyle.steps.whiten import LatentStats, adain
-from elastyle.types import FloatArray, IntArray
+from elastyle.types import BoolArray, FloatArray, IntArray
 
 log = logging.getLogger(__name__)
 MIN_PATCH_FRAMES = 4
@@ -117,12 +124,14 @@ def style_track(
     elif patch_frames < wanted:
         log.info("note: %s", shortened_patch_note(patch_frames, config, fps))
     # whiten, then match: the elastic search over stretched content patches, in two half-shifted sequences
-    windows = library.windows(patch_frames, config.whiten_floor, config.action_weight)
+    windows = library.windows(
+        patch_frames, config.whiten_floor, config.action_weight, config.match_frame_step(fps)
+    )
     white_content = content_stats.whiten(content_latents, config.whiten_floor)
     search = search_sequential if config.placement == "sequential" else search_fixed
     content_frames = match_frames(white_content, content_actions, config.action_weight)
     lengths = config.source_lengths(patch_frames, fps)
-    patches, shifted = search(content_frames, windows, lengths)
+    patches = search(content_frames, windows, lengths)
     leg_columns = (part_columns or {}).get("legs", np.zeros(0, dtype=np.int64))
     about_tempo = config.stretch_centre == "tempo" and config.placement == "sequential"
     range_tempo = 1.0  # the tempo the tried stretches surround
@@ -135,10 +144,12 @@ def style_track(
         if np.array_equal(centred, lengths):
             break
         range_tempo, lengths = tempo, centred
-        patches, shifted = search(content_frames, windows, lengths)
+        patches = search(content_frames, windows, lengths)
+    shifted = half_shifted(content_frames, windows, patches)
     # place and cross-fade: each grid time reads both sequences' style windows, weighted by a triangle
-    position_a, weight_a, log_rate, similarity_a = _patch_sample(grid, patches, patch_frames)
-    position_b, weight_b, _, similarity_b = _patch_sample(grid, shifted, patch_frames)
+    cover_a, cover_b = _cover(grid, patches), _cover(grid, shifted)
+    position_a, weight_a, log_rate, similarity_a = _patch_sample(cover_a, patches, patch_frames)
+    position_b, weight_b, _, similarity_b = _patch_sample(cover_b, shifted, patch_frames)
     library_white = library.white(config.whiten_floor)
     total = weight_a + weight_b
     white = (
@@ -166,8 +177,7 @@ def style_track(
 
     def on_grid(values: FloatArray, shifted_values: FloatArray) -> FloatArray:
         """(G,) per-patch values of both sequences (P,), (P - 1,), cross-faded as the latents are."""
-        return (weight_a * _patch_values(grid, patches, values)
-                + weight_b * _patch_values(grid, shifted, shifted_values)) / total  # fmt: skip
+        return (weight_a * cover_a.values(values) + weight_b * cover_b.values(shifted_values)) / total
 
     if "legs" in mismatch:
         shifted_mismatch = part_mismatch(content_actions, library.actions, shifted, patch_frames, leg_columns)
@@ -279,29 +289,47 @@ def _eased(ramp: FloatArray, ease_steps: float) -> FloatArray:
     return np.clip(smooth(x * x * (3 - 2 * x), ease_steps), 0.0, 1.0)
 
 
-def _patch_values(grid: FloatArray, patches: list[Patch], values: FloatArray) -> FloatArray:
-    """(G,) each patch's value (P,) at the grid times it covers (0 where none does)."""
-    with_values = [p._replace(similarity=float(v)) for p, v in zip(patches, values)]
-    return _patch_sample(grid, with_values, 1)[3]
+class _Cover(NamedTuple):
+    """Where a patch sequence covers a grid (G,): each grid time's patch (an index into the sequence), its
+    phase in that patch (0 to 1), and whether any patch covers it."""
+
+    which: IntArray
+    phase: FloatArray
+    inside: BoolArray
+
+    def values(self, per_patch: FloatArray) -> FloatArray:
+        """(G,) each patch's value (P,) at the grid times it covers (0 where none does)."""
+        if not len(per_patch):
+            return np.zeros(len(self.which))
+        return np.where(self.inside, np.asarray(per_patch, dtype=np.float64)[self.which], 0.0)
 
 
-def _patch_sample(
-    grid: FloatArray, patches: list[Patch], patch_frames: int
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """For each grid time (G,): library position, cross-fade weight, log rate and similarity of the
-    covering patch.
-
-    Patch i covers content times [start_i - 0.5, start_i + frames_i - 0.5); patches are in content order
-    and do not overlap. Grid times no patch covers get zeros.
-    """
+def _cover(grid: FloatArray, patches: list[Patch]) -> _Cover:
+    """Patch i covers content times [start_i - 0.5, start_i + frames_i - 0.5); patches are in content order
+    and do not overlap."""
     if not patches:
-        return np.zeros_like(grid), np.zeros_like(grid), np.zeros_like(grid), np.zeros_like(grid)
-    starts, frames, style_starts, similarities = np.array(
-        [(p.content_start, p.content_frames, p.style_start, p.similarity) for p in patches], dtype=np.float64
-    ).T  # (P,) each
+        return _Cover(
+            np.zeros(len(grid), dtype=np.int64), np.zeros_like(grid), np.zeros(len(grid), dtype=bool)
+        )
+    starts, frames = np.array([(p.content_start, p.content_frames) for p in patches], dtype=np.float64).T
     which = np.clip(np.searchsorted(starts - 0.5, grid, side="right") - 1, 0, len(patches) - 1)  # (G,)
     phase = (grid - starts[which] + 0.5) / frames[which]  # in [0, 1) inside the patch
     inside = (grid >= starts[which] - 0.5) & (grid < starts[which] + frames[which] - 0.5)
+    return _Cover(which, phase, inside)
+
+
+def _patch_sample(
+    cover: _Cover, patches: list[Patch], patch_frames: int
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """For each grid time of a cover (G,): library position, cross-fade weight, log rate and similarity of
+    the covering patch (zeros where none does)."""
+    if not patches:
+        zeros = np.zeros(len(cover.which))
+        return zeros, zeros.copy(), zeros.copy(), zeros.copy()
+    frames, style_starts, similarities = np.array(
+        [(p.content_frames, p.style_start, p.similarity) for p in patches], dtype=np.float64
+    ).T  # (P,) each
+    which, phase, inside = cover
     frame = phase * patch_frames - 0.5
     position = np.where(inside, style_starts[which] + np.clip(frame, 0, patch_frames - 1), 0.0)
     weight = np.where(inside, np.maximum(1 - np.abs(2 * phase - 1), 1e-3), 0.0)
