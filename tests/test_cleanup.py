@@ -11,7 +11,7 @@ from elastyle.core.skeleton import Skeleton
 from elastyle.eval.metrics import foot_skating_cm_s, jerk
 from elastyle.io.bvh_read import parse_bvh
 from elastyle.io.dataset import ClipRef
-from elastyle.steps.cleanup import adjust_root_speed, clean_feet
+from elastyle.steps.cleanup import adjust_root_speed, clean_feet, plant_feet
 from elastyle.steps.contacts import HEEL, TOE, detect_contacts, detect_point_contacts, ground_level, mask_runs
 from elastyle.types import BoolArray, FloatArray
 from tests.conftest import THREE_CHANNEL_BVH, clip_named
@@ -162,6 +162,20 @@ def test_root_follows_the_stride_then_feet_are_pinned(walk_clip: ClipRef) -> Non
     check_cleaned(stretched, cleaned)
     assert contact_skating_cm_s(cleaned, contacts) <= 2.0
     assert jerk(cleaned.positions(), motion.fps) <= 1.05 * jerk(stretched.positions(), motion.fps)
+
+
+def test_plant_feet_is_the_three_steps_in_one_pass(dataset_clips: list[ClipRef]) -> None:
+    drifted = with_drift(clip_named(dataset_clips, "dataset-2_walk_normal_010").read()[0])
+    contacts = detect_contacts(drifted)
+    for share in (0.0, 0.5, 1.0):
+        steps = (
+            clean_feet(adjust_root_speed(drifted, contacts, share), contacts)
+            if share
+            else clean_feet(drifted)
+        )
+        planted = plant_feet(drifted, share)
+        np.testing.assert_allclose(planted.rotations, steps.rotations, atol=1e-9)
+        np.testing.assert_allclose(planted.translations, steps.translations, atol=1e-9)
 
 
 def test_held_out_walks_with_sliding(dataset_clips: list[ClipRef]) -> None:

@@ -24,7 +24,7 @@ def smooth(values: FloatArray, sigma_frames: float) -> FloatArray:
     flat = values.reshape(values.shape[0], -1)  # (T, N)
     if values.shape[0] <= radius + 1:
         return (_covering_weights(kernel, values.shape[0]) @ flat).reshape(values.shape)
-    padded = np.pad(flat, ((radius, radius), (0, 0)), mode="edge")  # (T + 2r, N)
+    padded = pad_edges(flat, radius, radius)  # (T + 2r, N)
     windows = np.lib.stride_tricks.sliding_window_view(padded, 2 * radius + 1, axis=0)  # (T, N, K)
     return (windows @ kernel).reshape(values.shape)
 
@@ -42,13 +42,24 @@ def _covering_weights(kernel: FloatArray, num_frames: int) -> FloatArray:
     return weights
 
 
+def pad_edges(values: FloatArray, before: int, after: int) -> FloatArray:
+    """(T + before + after, ...) values (T, ...) with the first row repeated `before` times ahead and the
+    last `after` times behind: np.pad's mode "edge" along time, without its overhead (a few times faster
+    on the arrays used here)."""
+    padded = np.empty((values.shape[0] + before + after, *values.shape[1:]), dtype=values.dtype)
+    padded[before : before + values.shape[0]] = values
+    padded[:before] = values[0]
+    padded[before + values.shape[0] :] = values[-1]
+    return padded
+
+
 def moving_sum(values: FloatArray, width: int) -> FloatArray:
     """Sum along time (axis 0) of (T, ...) values over `width` frames about each frame, frames
     [t - width // 2, t + (width - 1) // 2], edges held constant: the same as width times
     scipy.ndimage.uniform_filter1d(values, width, axis=0, mode="nearest") (a test checks), without that
     import's cost (see `smooth`)."""
     flat = values.reshape(values.shape[0], -1)  # (T, N)
-    padded = np.pad(flat, ((width // 2 + 1, (width - 1) // 2), (0, 0)), mode="edge")
+    padded = pad_edges(flat, width // 2 + 1, (width - 1) // 2)
     padded[0] = 0.0  # the cumulative sum starts from zero
     totals = np.cumsum(padded, axis=0)  # (T + width, N)
     return (totals[width:] - totals[:-width]).reshape(values.shape)

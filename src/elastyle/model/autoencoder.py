@@ -12,6 +12,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
+from elastyle.core.smoothing import pad_edges
 from elastyle.model.config import ModelConfig
 from elastyle.types import AnyFloatArray, Float32Array
 
@@ -39,7 +40,7 @@ def _conv_same(x: Float32Array, weight: Float32Array, bias: Float32Array) -> Flo
     if kernel == 1:
         return x @ weight[:, :, 0].T + bias
     pad = kernel // 2
-    padded = np.pad(x, ((pad, kernel - 1 - pad), (0, 0)), mode="edge")  # (T + K - 1, C_in)
+    padded = pad_edges(x, pad, kernel - 1 - pad)  # (T + K - 1, C_in)
     windows = sliding_window_view(padded, kernel, axis=0)  # (T, C_in, K)
     flat = windows.reshape(windows.shape[0], -1)  # (T, C_in * K)
     return flat @ weight.reshape(weight.shape[0], -1).T + bias

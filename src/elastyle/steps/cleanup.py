@@ -11,7 +11,7 @@ from elastyle.core.body import Limbs, find_limbs, leg_length
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import lengths
 from elastyle.core.skeleton import Skeleton
-from elastyle.core.smoothing import smooth
+from elastyle.core.smoothing import pad_edges, smooth
 from elastyle.steps.contacts import detect_contacts, ground_level, mask_runs, pivots
 from elastyle.steps.leg_ik import is_below, leg_ik
 from elastyle.types import BoolArray, FloatArray, IntArray
@@ -267,6 +267,6 @@ def _pelvis_lowering(
     if not np.any(need > 0):
         return need
     radius = max(1, int(np.ceil(ramp_frames)))
-    padded = np.pad(need, radius, mode="edge")
+    padded = pad_edges(need, radius, radius)
     dilated = np.lib.stride_tricks.sliding_window_view(padded, 2 * radius + 1).max(axis=1)
     return np.maximum(smooth(dilated, SMOOTH_SIGMA_OF_WIDTH * radius), need)
