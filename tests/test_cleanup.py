@@ -353,3 +353,19 @@ def test_transfers_of_runs_and_backward_walks_keep_feet_planted(
     output = transfer(clips[0], clips[1]).motion
     unplanted = transfer(clips[0], clips[1], cleanup=False).motion
     assert floor_skating_cm_s(output) <= 8.0 < floor_skating_cm_s(unplanted)
+
+
+def test_a_skeleton_without_toes_is_left_as_it_is() -> None:
+    # root -> spine -> chest, which branches: the chest is the pelvis and has a parent
+    offsets = np.array([[0, 0, 0], [0, 10, 0], [0, 10, 0], [0, 5, 0], [0, -3, -2], [0, -3, -2.0]])
+    skeleton = Skeleton(
+        ("root", "spine", "chest", "head", "tail", "tail_tip"), np.array([-1, 0, 1, 2, 2, 4]), offsets
+    )
+    motion = Motion(skeleton, np.zeros((4, 6, 3)), np.tile(offsets, (4, 1, 1)), 30.0)
+    for cleaned in (
+        adjust_root_speed(motion, np.zeros((4, 0), dtype=bool)),
+        clean_feet(motion),
+        plant_feet(motion, 0.5),
+    ):
+        np.testing.assert_array_equal(cleaned.translations, motion.translations)
+        np.testing.assert_array_equal(cleaned.rotations, motion.rotations)

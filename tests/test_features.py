@@ -117,15 +117,10 @@ def test_smoothing_matches_scipy() -> None:
     from elastyle.core.smoothing import smooth
 
     short = np.random.default_rng(0).normal(size=(50, 4, 3))
-    long = np.random.default_rng(1).normal(size=(700, 5))  # several of the banded product's blocks
+    long = np.random.default_rng(1).normal(size=(700, 5))
+    wide = (40.0, 300.0)  # kernels wider than the short clip, then wider than the long one too
     for values in (short, long, long[:, 0]):
-        for sigma in (
-            0.5,
-            1.0,
-            7.5,
-            40.0,
-            300.0,
-        ):  # the last two wider than the short clip, the last the long one
+        for sigma in (0.5, 1.0, 7.5, *wide):
             np.testing.assert_allclose(
                 smooth(values, sigma), gaussian_filter1d(values, sigma, axis=0, mode="nearest"), atol=1e-12
             )

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from elastyle.core.rotations import from_matrix, multiply, slerp_resample, to_matrix, to_quat
+from elastyle.core.rotations import continuous_log, from_matrix, multiply, slerp_resample, to_matrix, to_quat
 
 
 def _random_rotvecs(count: int) -> np.ndarray:
@@ -61,3 +61,14 @@ def test_slerp_matches_scipy() -> None:
         expected = Slerp(np.arange(20), Rotation.from_rotvec(rotvecs[:, joint]))(times).as_matrix()
         np.testing.assert_allclose(to_matrix(ours[:, joint]), expected, atol=1e-9)
     assert np.all(np.linalg.norm(ours, axis=-1) <= np.pi + 1e-12)
+
+
+def test_continuous_log_starts_below_a_half_turn_and_has_no_jumps() -> None:
+    angles = np.linspace(0.5, 5.5, 60)  # a steady turn past pi about one axis
+    rotvecs = np.stack([np.zeros(60), angles, np.zeros(60)], axis=1)[:, None]  # (60, 1, 3)
+    wrapped = from_matrix(to_matrix(rotvecs))  # the same rotations, angles folded into [0, pi]
+    continuous = continuous_log(wrapped)
+    np.testing.assert_allclose(continuous[:, 0, 1], angles, atol=1e-9)
+    # a clip that starts past a half turn (5.5 rad about -y) starts at that rotation's shorter way round
+    backwards = -rotvecs[::-1]
+    np.testing.assert_allclose(continuous_log(backwards)[0, 0, 1], 2 * np.pi - 5.5, atol=1e-9)

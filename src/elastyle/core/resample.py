@@ -1,19 +1,15 @@
 """The one interpolation helper: rows of an array at fractional positions along its first axis.
 
 Resampling a clip, reading a latent track at fractional frames, retiming a root path and stretching a
-training window all go through `interpolate_rows` (rotations through `slerp_resample`, which uses it
-for the weights' bookkeeping).
+training window all go through `interpolate_rows` (rotations through `slerp_resample`, which shares its
+`bracket`).
 """
 
 from __future__ import annotations
 
-from typing import TypeVar
-
 import numpy as np
 
-from elastyle.types import AnyFloatArray, FloatArray
-
-ArrayT = TypeVar("ArrayT", bound=AnyFloatArray)
+from elastyle.types import ArrayT, FloatArray
 
 
 def bracket(positions: FloatArray, length: int) -> tuple[np.ndarray, np.ndarray, FloatArray]:

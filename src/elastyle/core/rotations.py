@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from elastyle.core.resample import bracket
 from elastyle.types import FloatArray
 
 
@@ -177,11 +178,8 @@ def continuous_log_of_quats(quats: FloatArray, axis: int = 0) -> FloatArray:
 def slerp_resample(rotvecs: FloatArray, times: FloatArray) -> FloatArray:
     """Sample rotations (T, J, 3) at fractional frame indices `times` (N,) in [0, T-1] by slerp -> (N, J, 3)
     (the shorter way between neighbouring frames; angles in [0, pi])."""
-    num_frames = rotvecs.shape[0]
-    times = np.clip(times, 0.0, num_frames - 1)
-    lower = np.minimum(np.floor(times).astype(np.int64), max(num_frames - 2, 0))  # (N,)
-    upper = np.minimum(lower + 1, num_frames - 1)
-    weight = (times - lower)[:, None, None]  # (N, 1, 1)
+    lower, upper, weight = bracket(times, rotvecs.shape[0])  # (N,) each
+    weight = weight[:, None, None]  # (N, 1, 1)
     quats = to_quat(rotvecs)  # (T, J, 4)
     start, end = quats[lower], quats[upper]  # (N, J, 4)
     cosine = np.sum(start * end, axis=-1, keepdims=True)  # (N, J, 1)

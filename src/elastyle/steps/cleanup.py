@@ -118,6 +118,8 @@ def adjust_root_speed(
     """
     limbs = find_limbs(motion.skeleton)
     contacts = _checked(contacts, motion, limbs)
+    if motion.num_frames < 2 or contacts.shape[1] == 0:
+        return Motion(motion.skeleton, motion.rotations.copy(), motion.translations.copy(), motion.fps)
     world = motion.world(limbs.feet)
     shift = _root_shift(motion, contacts, world, share, smooth_s, tolerance)
     return Motion(
@@ -136,8 +138,6 @@ def _root_shift(
     """(T, 3) world: how `adjust_root_speed` moves the pelvis, from the clip's world rotations and
     positions of the feet and their ancestors (`Motion.world`)."""
     limbs = find_limbs(motion.skeleton)
-    if motion.num_frames < 2 or contacts.shape[1] == 0:
-        return np.zeros((motion.num_frames, 3))
     positions = world[1]
     points, weights = pivots(positions, limbs, leg_length(motion.skeleton, limbs))  # (T, F, 2, 3), (T, F, 2)
     planted = (contacts[1:] & contacts[:-1])[..., None] * 0.5 * (weights[1:] + weights[:-1])  # (T-1, F, 2)

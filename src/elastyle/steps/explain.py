@@ -87,6 +87,7 @@ def explain(
         "stretch": config.stretch,
         "stretch_centre": config.stretch_centre,
         "action_weight": config.action_weight,
+        "match_step_s": config.match_step_s,
         "fallback_below": config.fallback_below,
         "keep_action_above": config.keep_action_above,
         "legs_turning_above": config.legs_turning_above,

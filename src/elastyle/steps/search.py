@@ -80,8 +80,8 @@ class StyleWindows:
     so the products stay a few megabytes.
 
     frame_step: windows are compared on every `frame_step`-th frame of theirs (frames n, n + s, ... of
-    window n; the queries' frames 0, s, ...): latents change little from one frame to the next, so a step
-    of 2 finds the same windows for half the arithmetic.
+    window n; the queries' frames 0, s, ...): a step of 2 halves the arithmetic, but among near-equal
+    windows it picks others than every frame would (`TransferConfig.match_step_s`: off by default).
 
     valid: (N,) False for windows that would cross from one library clip into the next.
     """
