@@ -174,8 +174,8 @@ def test_plant_feet_is_the_three_steps_in_one_pass(dataset_clips: list[ClipRef])
             else clean_feet(drifted)
         )
         planted = plant_feet(drifted, share)
-        np.testing.assert_allclose(planted.rotations, steps.rotations, atol=1e-9)
-        np.testing.assert_allclose(planted.translations, steps.translations, atol=1e-9)
+        np.testing.assert_allclose(planted.rotations, steps.rotations, atol=1e-7)  # float rounding only
+        np.testing.assert_allclose(planted.translations, steps.translations, atol=1e-7)
 
 
 def test_held_out_walks_with_sliding(dataset_clips: list[ClipRef]) -> None:
