@@ -2,7 +2,8 @@
 
 A transfer can show no more of a motion than the model can represent. The model file records what it
 reaches on its held-out takes (`calibrate`, run at the end of training); a clip reconstructed far worse
-than that (`WARN_FACTOR` times the held-out 95th percentile) gets a one-line warning naming it.
+than that (`WARN_FACTOR` times the held-out 95th percentile, and at least `WARN_FLOOR_CM`) gets a one-line
+warning naming it.
 """
 
 from __future__ import annotations
@@ -19,6 +20,9 @@ from elastyle.model.file import StyleModel
 from elastyle.types import FloatArray
 
 WARN_FACTOR = 2.0  # warn above this many times the held-out 95th percentile of the reconstruction error
+# ... and never below this: a model that draws its own takes to a few millimetres would otherwise warn about
+# clips it draws to under a centimetre (a new performer of a motion it knows), which no viewer would see
+WARN_FLOOR_CM = 1.0
 DEFAULT_WARN_CM = 3.0  # for model files written before calibration was recorded
 
 
@@ -55,7 +59,7 @@ def calibrate(model: StyleModel, held_out: Sequence[Motion]) -> dict[str, Any]:
     p95 = float(np.percentile(errors, 95))
     return {
         "held_out_joint_error_cm": {"median": round(float(np.median(errors)), 3), "p95": round(p95, 3)},
-        "reconstruction_warn_cm": round(WARN_FACTOR * p95, 2),
+        "reconstruction_warn_cm": round(max(WARN_FACTOR * p95, WARN_FLOOR_CM), 2),
     }
 
 
@@ -65,7 +69,11 @@ def depth_warning(model: StyleModel, error_cm: float, name: str) -> str | None:
     threshold = float(model.metadata.get("reconstruction_warn_cm", DEFAULT_WARN_CM))
     if error_cm <= threshold:
         return None
-    basis = f", {WARN_FACTOR:g} times what it reaches on 95 % of its held-out takes" if calibrated else ""
+    basis = (
+        f", {WARN_FACTOR:g} times what it reaches on 95 % of its held-out takes and at least {WARN_FLOOR_CM:g} cm"
+        if calibrated
+        else ""
+    )
     return (
         f"warning: {name}: the model reproduces this clip with {error_cm:.1f} cm mean joint error (warning "
         f"above {threshold:.1f} cm{basis}): it has not learnt motions like it, so the output will not show "
