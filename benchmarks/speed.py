@@ -86,9 +86,9 @@ class SearchTimer:
     def __enter__(self) -> SearchTimer:
         timer = self
 
-        def timed(windows, queries):  # type: ignore[no-untyped-def]
+        def timed(windows, queries, excluded=None):  # type: ignore[no-untyped-def]
             started = time.perf_counter()
-            result = timer.original(windows, queries)
+            result = timer.original(windows, queries, excluded)
             timer.seconds += time.perf_counter() - started
             timer.shapes.append((queries.shape[0], queries.shape[1] * queries.shape[2], windows.num_windows))
             return result

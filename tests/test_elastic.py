@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from elastyle.steps.search import StyleWindows, half_shifted, sample_windows, search_sequential
+from elastyle.steps.search import SideGuard, StyleWindows, half_shifted, sample_windows, search_sequential
 
 
 def _brute_force_best(
@@ -87,3 +87,25 @@ def test_sequential_search_consumes_the_content_at_the_matched_stretch() -> None
     for a, b in zip(patches, patches[1:]):
         assert b.content_start == a.content_start + a.content_frames
     assert len(shifted) == len(patches) - 1
+
+
+def test_mirrored_windows_are_not_taken_where_they_switch_the_content_s_sides() -> None:
+    rng = np.random.default_rng(3)
+    content = rng.standard_normal((60, 4))
+    original = content[::-1] + 0.5 * rng.standard_normal((60, 4))  # like the content, not as like
+    library = np.concatenate([original, content])  # the second clip: the mirror, the content itself
+    starts = np.array([0, 60])
+    windows = StyleWindows(library, starts, 12)
+    mirrored = np.arange(windows.num_windows) >= 60
+    lengths = np.array([12])
+    # the content's hands level (sides 0); the mirror's windows one hand 1 leg above the other
+    window_sides = np.where(mirrored[:, None], [0.0, 1.0, 0.0], 0.0)
+    guard = SideGuard(np.zeros((60, 3)), window_sides, mirrored)
+    free = search_sequential(content, windows, lengths)
+    guarded = search_sequential(content, windows, lengths, guard)
+    assert all(p.style_start >= 60 for p in free)  # unguarded, the mirror matches best
+    assert all(p.style_start < 60 for p in guarded)
+    assert all(p.style_start < 60 for p in half_shifted(content, windows, guarded, guard))
+    # a mirror whose sides agree with the content's is taken as before
+    agreeing = SideGuard(np.zeros((60, 3)), np.zeros_like(window_sides), mirrored)
+    assert search_sequential(content, windows, lengths, agreeing) == free

@@ -14,7 +14,7 @@ The half-shifted second sequence spans from the centre of one elastic patch to t
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import NamedTuple
 
 import numpy as np
@@ -149,9 +149,10 @@ class StyleWindows:
         return np.ascontiguousarray(rows.transpose(2, 1, 0)).reshape(block * width, stop - first)
 
     def _similarity_chunks(
-        self, queries: FloatArray, block: int | None
+        self, queries: FloatArray, block: int | None, excluded: Exclusion | None = None
     ) -> Iterator[tuple[int, int, Float32Array]]:
-        """(first, last, cosine similarity (Q, last - first) of the queries with windows first..last-1)."""
+        """(first, last, cosine similarity (Q, last - first) of the queries with windows first..last-1);
+        -inf where a window is invalid or `excluded` (first, last) marks it for a query."""
         queries = queries[:, :: self.frame_step]  # the compared frames
         count, length, width = queries.shape
         block = block or self.block_frames(count)
@@ -180,6 +181,8 @@ class StyleWindows:
             dots = shifted.sum(axis=1)  # (Q, last - first), a new array
             dots *= self.inverse_norms[first:last]
             np.copyto(dots, np.float32(-np.inf), where=self._invalid[first:last])
+            if excluded is not None:
+                np.copyto(dots, np.float32(-np.inf), where=excluded(first, last))
             yield first, last, dots
 
     def similarities(self, queries: FloatArray, block: int | None = None) -> Float32Array:
@@ -191,15 +194,16 @@ class StyleWindows:
         chunks = [dots for _, _, dots in self._similarity_chunks(queries, block)]
         return np.concatenate(chunks, axis=1) if chunks else np.zeros((len(queries), 0), np.float32)
 
-    def best(self, queries: FloatArray) -> tuple[IntArray, FloatArray]:
-        """For queries (Q, L, Z): the best window index (Q,) and its cosine similarity (Q,).
+    def best(self, queries: FloatArray, excluded: Exclusion | None = None) -> tuple[IntArray, FloatArray]:
+        """For queries (Q, L, Z): the best window index (Q,) and its cosine similarity (Q,), among the
+        windows `excluded` (first, last) -> (Q, last - first) does not mark for each query.
 
         Reduced chunk by chunk, so many queries against a long library never hold a (Q, N) matrix.
         """
         index = np.zeros(len(queries), dtype=np.int64)
         value = np.full(len(queries), -np.inf)
         rows = np.arange(len(queries))
-        for first, _, dots in self._similarity_chunks(queries, None):
+        for first, _, dots in self._similarity_chunks(queries, None, excluded):
             local = np.argmax(dots, axis=1)
             local_value = dots[rows, local]
             better = local_value > value
@@ -208,19 +212,55 @@ class StyleWindows:
         return index, value
 
 
+# (first, last) -> (Q, last - first): the windows a query may not take
+Exclusion = Callable[[int, int], BoolArray]
+# a mirrored window whose hands' sidedness differs from the content's by more (legs) is not taken
+SIDE_CHANGE_LEGS = 0.3
+
+
+class SideGuard(NamedTuple):
+    """Mirrored style windows are taken only where they keep the content's sidedness: a one-handed action
+    matched against the mirror of the style's would switch hands, and a still content matched against a
+    mirrored one-handed window would raise the other hand.
+
+    content: (T, 3) per content frame, one hand's place minus the other's (legs, heading frame);
+    windows: (N, 3) the same over each library window (its mean); mirrored: (N,) windows of mirrored clips.
+    Where the mean over a query's span and a mirrored window's differ by more than `SIDE_CHANGE_LEGS`, that
+    window is excluded for that query.
+    """
+
+    content: FloatArray
+    windows: FloatArray
+    mirrored: BoolArray
+
+    def excluded(self, starts: npt.ArrayLike, lengths: npt.ArrayLike, count: int) -> Exclusion:
+        """The exclusion for Q queries spanning content frames [start, start + length) (Q,) each."""
+        spans = sample_windows(self.content, starts, lengths, count).mean(axis=1)  # (Q, 3)
+        span_energy = np.sum(spans**2, axis=1)[:, None]  # (Q, 1)
+
+        def chunk(first: int, last: int) -> BoolArray:
+            sides = self.windows[first:last]  # (n, 3)
+            # squared distances |s - w|^2 of every query's span to every window, as one small product
+            gaps = span_energy + np.sum(sides**2, axis=1) - 2 * spans @ sides.T  # (Q, n)
+            return (gaps > SIDE_CHANGE_LEGS**2) & self.mirrored[first:last]
+
+        return chunk
+
+
 def search_sequential(
-    white_content: FloatArray, windows: StyleWindows, source_lengths: IntArray
+    white_content: FloatArray, windows: StyleWindows, source_lengths: IntArray, guard: SideGuard | None = None
 ) -> list[Patch]:
-    """Greedy sequential elastic search: the elastic patches (their half-shifted sequence: `half_shifted`)."""
+    """Greedy sequential elastic search: the elastic patches (their half-shifted sequence: `half_shifted`);
+    mirrored windows only where `guard` allows them."""
     patch_frames = windows.patch_frames
     num_frames = white_content.shape[0]
     patches: list[Patch] = []
     cursor = 0.0
     while cursor < num_frames or not patches:
-        queries = sample_windows(
-            white_content, np.full(len(source_lengths), cursor), source_lengths, patch_frames
-        )
-        index, similarity = windows.best(queries)
+        starts = np.full(len(source_lengths), cursor)
+        queries = sample_windows(white_content, starts, source_lengths, patch_frames)
+        excluded = None if guard is None else guard.excluded(starts, source_lengths, patch_frames)
+        index, similarity = windows.best(queries, excluded)
         choice = int(np.argmax(similarity))
         patches.append(
             Patch(cursor, float(source_lengths[choice]), int(index[choice]), float(similarity[choice]))
@@ -229,7 +269,9 @@ def search_sequential(
     return patches
 
 
-def search_fixed(white_content: FloatArray, windows: StyleWindows, source_lengths: IntArray) -> list[Patch]:
+def search_fixed(
+    white_content: FloatArray, windows: StyleWindows, source_lengths: IntArray, guard: SideGuard | None = None
+) -> list[Patch]:
     """The literal placement: patches on the content's own grid, stretch used only for matching.
 
     Every patch is known beforehand, so all patches and stretches are searched in one batch (their
@@ -239,9 +281,10 @@ def search_fixed(white_content: FloatArray, windows: StyleWindows, source_length
     num_patches = max(1, int(np.ceil(white_content.shape[0] / patch_frames)))
     centres = (np.arange(num_patches) + 0.5) * patch_frames  # (P,)
     lengths = np.tile(source_lengths, num_patches)  # (P * S,)
-    queries = sample_windows(white_content, np.repeat(centres, len(source_lengths)) - lengths / 2, lengths,
-                             patch_frames)  # fmt: skip
-    index, similarity = (a.reshape(num_patches, -1) for a in windows.best(queries))  # (P, S)
+    starts = np.repeat(centres, len(source_lengths)) - lengths / 2
+    queries = sample_windows(white_content, starts, lengths, patch_frames)
+    excluded = None if guard is None else guard.excluded(starts, lengths, patch_frames)
+    index, similarity = (a.reshape(num_patches, -1) for a in windows.best(queries, excluded))  # (P, S)
     choice = np.argmax(similarity, axis=1)
     # placed at the content's grid: consumes exactly L content frames whatever the stretch
     return [
@@ -250,7 +293,9 @@ def search_fixed(white_content: FloatArray, windows: StyleWindows, source_length
     ]
 
 
-def half_shifted(white_content: FloatArray, windows: StyleWindows, patches: list[Patch]) -> list[Patch]:
+def half_shifted(
+    white_content: FloatArray, windows: StyleWindows, patches: list[Patch], guard: SideGuard | None = None
+) -> list[Patch]:
     """Patches from the centre of each patch to the centre of the next (fixed length), searched without stretch."""
     spans = [
         (a.content_start + a.content_frames / 2, (a.content_frames + b.content_frames) / 2)
@@ -260,5 +305,6 @@ def half_shifted(white_content: FloatArray, windows: StyleWindows, patches: list
         return []
     starts, lengths = np.array(spans).T
     queries = sample_windows(white_content, starts, lengths, windows.patch_frames)
-    index, similarity = windows.best(queries)
+    excluded = None if guard is None else guard.excluded(starts, lengths, windows.patch_frames)
+    index, similarity = windows.best(queries, excluded)
     return [Patch(s, n, int(i), float(v)) for (s, n), i, v in zip(spans, index, similarity)]

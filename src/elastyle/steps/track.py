@@ -21,6 +21,7 @@ from elastyle.steps.config import TransferConfig
 from elastyle.steps.library import StyleLibrary, match_frames
 from elastyle.steps.search import (
     Patch,
+    SideGuard,
     half_shifted,
     mean_gap,
     patch_windows,
@@ -131,7 +132,8 @@ def style_track(
     search = search_sequential if config.placement == "sequential" else search_fixed
     content_frames = match_frames(white_content, content_actions, config.action_weight)
     lengths = config.source_lengths(patch_frames, fps)
-    patches = search(content_frames, windows, lengths)
+    guard = side_guard(content_actions, library, patch_frames, part_columns or {})
+    patches = search(content_frames, windows, lengths, guard)
     leg_columns = (part_columns or {}).get("legs", np.zeros(0, dtype=np.int64))
     about_tempo = config.stretch_centre == "tempo" and config.placement == "sequential"
     range_tempo = 1.0  # the tempo the tried stretches surround
@@ -144,8 +146,8 @@ def style_track(
         if np.array_equal(centred, lengths):
             break
         range_tempo, lengths = tempo, centred
-        patches = search(content_frames, windows, lengths)
-    shifted = half_shifted(content_frames, windows, patches)
+        patches = search(content_frames, windows, lengths, guard)
+    shifted = half_shifted(content_frames, windows, patches, guard)
     # place and cross-fade: each grid time reads both sequences' style windows, weighted by a triangle
     cover_a, cover_b = _cover(grid, patches), _cover(grid, shifted)
     position_a, weight_a, log_rate, similarity_a = _patch_sample(cover_a, patches, patch_frames)
@@ -226,6 +228,25 @@ def style_track(
     return StyleTrack(
         coloured, log_rate, patches, patch_frames, fallback, mismatch, measures, keep, other_action
     )
+
+
+def side_guard(
+    content_actions: FloatArray, library: StyleLibrary, patch_frames: int, part_columns: dict[str, IntArray]
+) -> SideGuard | None:
+    """The `SideGuard` for a content (actions (T, A)) against a library with mirrored clips, from each arm's
+    hand columns (`steps.action.part_channels`); None without mirrored clips or without both arms."""
+    if not any(library.mirrored) or not {"left-arm", "right-arm"} <= part_columns.keys():
+        return None
+    left, right = part_columns["left-arm"][:3], part_columns["right-arm"][:3]
+    sides = library.actions[:, left] - library.actions[:, right]  # (N_frames, 3) legs
+    total = np.concatenate([np.zeros((1, 3)), np.cumsum(sides, axis=0)])
+    num_windows = max(len(sides) - patch_frames + 1, 0)
+    windows = (
+        total[patch_frames : patch_frames + num_windows] - total[:num_windows]
+    ) / patch_frames  # (N, 3)
+    clip = np.searchsorted(library.clip_starts, np.arange(num_windows), side="right") - 1
+    mirrored = np.asarray(library.mirrored, dtype=bool)[clip]
+    return SideGuard(content_actions[:, left] - content_actions[:, right], windows, mirrored)
 
 
 def stepping_tempo(
