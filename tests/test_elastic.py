@@ -109,3 +109,35 @@ def test_mirrored_windows_are_not_taken_where_they_switch_the_content_s_sides() 
     # a mirror whose sides agree with the content's is taken as before
     agreeing = SideGuard(np.zeros((60, 3)), np.zeros_like(window_sides), mirrored)
     assert search_sequential(content, windows, lengths, agreeing) == free
+
+
+def test_side_guard_reads_each_window_of_a_real_library(dataset_clips) -> None:  # type: ignore[no-untyped-def]
+    from elastyle.model.file import load_model
+    from elastyle.steps.action import part_channels
+    from elastyle.steps.library import prepare_style
+    from elastyle.steps.track import side_guard
+    from tests.conftest import clip_named
+
+    model = load_model()
+    raise_left = clip_named(dataset_clips, "dataset-2_raise-up-left-hand_feminine_005").read()[0]
+    library = prepare_style(model, [raise_left])  # the clip and its mirror
+    columns = part_channels(raise_left.skeleton)
+    guard = side_guard(library.actions, library, 30, columns)
+    assert guard is not None
+    left, right = columns["left-arm"][:3], columns["right-arm"][:3]
+    sides = library.actions[:, left] - library.actions[:, right]
+    for window in (0, 17, library.clip_starts[1] - 30, library.clip_starts[1] + 5):
+        np.testing.assert_allclose(
+            guard.windows[window], sides[window : window + 30].mean(axis=0), atol=1e-12
+        )
+        assert guard.mirrored[window] == (window >= library.clip_starts[1])
+    # the raised left hand: the original's windows have it higher than the right, the mirror's lower
+    peak = int(np.argmax(guard.windows[: library.clip_starts[1] - 29, 1]))
+    assert guard.windows[peak, 1] > 0.3 and guard.windows[library.clip_starts[1] + peak, 1] < -0.3
+    # every window excluded for a query: the search falls back to the best of all
+    spans = np.tile([0.0, 50.0, 0.0], (len(library.actions), 1))  # no window is anywhere near
+    only_mirrored = guard._replace(content=spans, mirrored=np.ones_like(guard.mirrored))
+    windows = library.windows(30, 0.1, 2.0)
+    queries = windows.frames[None, :30]
+    excluded = only_mirrored.excluded(np.array([0.0]), np.array([30.0]), 30)
+    assert np.array_equal(windows.best(queries, excluded)[0], windows.best(queries)[0])

@@ -209,6 +209,9 @@ class StyleWindows:
             better = local_value > value
             index[better] = first + local[better]
             value[better] = local_value[better]
+        unmatched = ~np.isfinite(value)  # every window excluded for these queries: the best of all instead
+        if excluded is not None and np.any(unmatched):
+            index[unmatched], value[unmatched] = self.best(queries[unmatched])
         return index, value
 
 
@@ -239,10 +242,13 @@ class SideGuard(NamedTuple):
         span_energy = np.sum(spans**2, axis=1)[:, None]  # (Q, 1)
 
         def chunk(first: int, last: int) -> BoolArray:
+            mirrored = self.mirrored[first:last]
+            if not np.any(mirrored):
+                return np.zeros((len(spans), last - first), dtype=bool)
             sides = self.windows[first:last]  # (n, 3)
             # squared distances |s - w|^2 of every query's span to every window, as one small product
             gaps = span_energy + np.sum(sides**2, axis=1) - 2 * spans @ sides.T  # (Q, n)
-            return (gaps > SIDE_CHANGE_LEGS**2) & self.mirrored[first:last]
+            return (gaps > SIDE_CHANGE_LEGS**2) & mirrored
 
         return chunk
 
