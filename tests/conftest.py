@@ -9,7 +9,9 @@ from pathlib import Path
 import pytest
 from hypothesis import settings
 
+from elastyle.core.motion import Motion
 from elastyle.io.dataset import ClipRef, default_data_path, find_clips
+from elastyle.model.file import load_model
 
 NO_DATA_REASON = (
     "dataset not found: set ELASTYLE_DATA to the Bandai Namco Research Motion Dataset 2 zip or folder"
@@ -54,6 +56,24 @@ def dataset_clips(data_path: Path) -> list[ClipRef]:
 
 def clip_named(clips: list[ClipRef], stem: str) -> ClipRef:
     return next(c for c in clips if c.stem == stem)
+
+
+@pytest.fixture(scope="module")
+def model():  # type: ignore[no-untyped-def]
+    """The shipped model."""
+    return load_model()
+
+
+@pytest.fixture(scope="module")
+def content(dataset_clips: list[ClipRef]) -> Motion:
+    """A held-out neutral walk (take % 5 == 0), the content of the transfer tests."""
+    return clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0]
+
+
+@pytest.fixture(scope="module")
+def style_clip(dataset_clips: list[ClipRef]) -> Motion:
+    """A held-out active walk, their style."""
+    return clip_named(dataset_clips, "dataset-2_walk_active_010").read()[0]
 
 
 @pytest.fixture(scope="session")

@@ -8,24 +8,7 @@ import logging
 import numpy as np
 import pytest
 
-from elastyle import Motion, TransferConfig, load_model, transfer
-from elastyle.io.dataset import ClipRef
-from tests.conftest import clip_named
-
-
-@pytest.fixture(scope="module")
-def model():  # type: ignore[no-untyped-def]
-    return load_model()
-
-
-@pytest.fixture(scope="module")
-def content(dataset_clips: list[ClipRef]) -> Motion:
-    return clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0]  # a held-out take
-
-
-@pytest.fixture(scope="module")
-def style_clip(dataset_clips: list[ClipRef]) -> Motion:
-    return clip_named(dataset_clips, "dataset-2_walk_active_010").read()[0]
+from elastyle import Motion, TransferConfig, transfer
 
 
 def _largest_displacement_cm(a: Motion, b: Motion) -> float:

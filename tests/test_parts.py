@@ -15,17 +15,11 @@ from elastyle.core.body import find_limbs, leg_length
 from elastyle.core.parts import body_parts
 from elastyle.eval.metrics import cadence_steps_s
 from elastyle.io.dataset import ClipRef
-from elastyle.model.file import load_model
 from elastyle.steps.arms import back_and_forth
 from elastyle.types import FloatArray
 from tests.conftest import clip_named
 
 pytestmark = pytest.mark.slow
-
-
-@pytest.fixture(scope="module")
-def model():  # type: ignore[no-untyped-def]
-    return load_model()
 
 
 @pytest.fixture(scope="module")

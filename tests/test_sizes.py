@@ -7,49 +7,31 @@ import pytest
 
 from elastyle import Motion
 from elastyle.eval.report import transfer_figures
-from elastyle.io.dataset import ClipRef
 from elastyle.model.depth import clip_depth
-from elastyle.model.file import load_model
 from elastyle.pipeline import transfer
-from tests.conftest import clip_named
-
-
-@pytest.fixture(scope="module")
-def model():  # type: ignore[no-untyped-def]
-    return load_model()
-
-
-@pytest.fixture(scope="module")
-def walk(dataset_clips: list[ClipRef]) -> Motion:
-    return clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0]
-
-
-@pytest.fixture(scope="module")
-def style(dataset_clips: list[ClipRef]) -> Motion:
-    return clip_named(dataset_clips, "dataset-2_walk_active_010").read()[0]
 
 
 @pytest.mark.slow
-def test_clips_in_metres_transfer_as_in_centimetres(model, walk: Motion, style: Motion) -> None:  # type: ignore[no-untyped-def]
-    in_cm = transfer(walk, style, model=model).motion
-    in_m = transfer(walk.scaled(0.01), style.scaled(0.01), model=model).motion
+def test_clips_in_metres_transfer_as_in_centimetres(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
+    in_cm = transfer(content, style_clip, model=model).motion
+    in_m = transfer(content.scaled(0.01), style_clip.scaled(0.01), model=model).motion
     assert np.array_equal(
-        in_m.skeleton.offsets, walk.scaled(0.01).skeleton.offsets
+        in_m.skeleton.offsets, content.scaled(0.01).skeleton.offsets
     )  # the content's own skeleton
     assert np.abs(in_m.positions() * 100 - in_cm.positions()).max() < 1e-6  # cm
-    figures = transfer_figures(in_m, walk, style)  # eval: each clip in its own unit
+    figures = transfer_figures(in_m, content, style_clip)  # eval: each clip in its own unit
     assert figures["bone_length_error_cm"] < 1e-6
     assert figures["jitter_vs_content"] == pytest.approx(
-        transfer_figures(in_cm, walk, style)["jitter_vs_content"]
+        transfer_figures(in_cm, content, style_clip)["jitter_vs_content"]
     )
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("factor", [0.01, 0.85, 1.15])
-def test_another_size_is_read_as_well_as_the_models_own(model, walk: Motion, factor: float) -> None:  # type: ignore[no-untyped-def]
-    own, warning = clip_depth(model, walk, "walk")
+def test_another_size_is_read_as_well_as_the_models_own(model, content: Motion, factor: float) -> None:  # type: ignore[no-untyped-def]
+    own, warning = clip_depth(model, content, "walk")
     assert warning is None
-    error, warning = clip_depth(model, walk.scaled(factor), "walk")
+    error, warning = clip_depth(model, content.scaled(factor), "walk")
     assert (
         warning is None and error < 1.3 * own
     )  # read at the model's size (15 % off read raw: about 10 times)
@@ -57,39 +39,39 @@ def test_another_size_is_read_as_well_as_the_models_own(model, walk: Motion, fac
 
 @pytest.mark.slow
 def test_a_smaller_character_keeps_its_size_and_stays_the_content_at_strength_zero(
-    model, walk: Motion, style: Motion
+    model, content: Motion, style_clip: Motion
 ) -> None:  # type: ignore[no-untyped-def]
-    small = walk.scaled(0.8)
-    output = transfer(small, style, model=model, strength=0.0).motion
+    small = content.scaled(0.8)
+    output = transfer(small, style_clip, model=model, strength=0.0).motion
     assert np.array_equal(output.skeleton.offsets, small.skeleton.offsets)
     np.testing.assert_array_equal(output.rotations, small.rotations)  # the content itself, to the last bit
     np.testing.assert_array_equal(output.translations, small.translations)
-    kept = transfer(small, style, model=model, keep_part="legs,spine,arms").motion
+    kept = transfer(small, style_clip, model=model, keep_part="legs,spine,arms").motion
     np.testing.assert_array_equal(kept.translations, small.translations)
-    styled = transfer(small, style, model=model).motion
+    styled = transfer(small, style_clip, model=model).motion
     pelvis = small.skeleton.pelvis
     heights = styled.positions()[:, pelvis, 1].mean(), small.positions()[:, pelvis, 1].mean()
     assert abs(heights[0] / heights[1] - 1) < 0.1  # its own size, not the model's
 
 
-def test_training_brings_its_clips_to_one_size(walk: Motion) -> None:
+def test_training_brings_its_clips_to_one_size(content: Motion) -> None:
     """Training reads clips as a transfer does: another unit or another body size at the first clip's size."""
     from elastyle.training.loop import at_one_size
 
-    taller = walk.scaled(1.01)  # within the performers' own spread: kept as it is
-    sized = at_one_size([walk, walk.scaled(0.01), walk.scaled(1.1), taller], walk.skeleton)
-    assert sized[0] is walk and sized[3] is taller
+    taller = content.scaled(1.01)  # within the performers' own spread: kept as it is
+    sized = at_one_size([content, content.scaled(0.01), content.scaled(1.1), taller], content.skeleton)
+    assert sized[0] is content and sized[3] is taller
     for motion in sized[1:3]:
-        np.testing.assert_allclose(motion.translations, walk.translations, rtol=1e-12, atol=1e-9)
+        np.testing.assert_allclose(motion.translations, content.translations, rtol=1e-12, atol=1e-9)
 
 
 def test_a_resized_clips_figures_are_at_the_models_size_whether_its_unit_is_stated_or_guessed(
-    model, walk: Motion
+    model, content: Motion
 ) -> None:  # type: ignore[no-untyped-def]
     from elastyle.core.body import in_units
 
     for factor in (0.5, 1.5):
-        large = walk.scaled(factor)
+        large = content.scaled(factor)
         assert clip_depth(model, in_units(large, "cm"), "walk")[0] == pytest.approx(
             clip_depth(model, large, "walk")[0]
         )

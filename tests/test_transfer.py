@@ -9,27 +9,10 @@ from elastyle import ClipTooShortError, Motion
 from elastyle.eval.metrics import cadence_steps_s, timing_error
 from elastyle.eval.reconstruction import reconstruct
 from elastyle.io.dataset import ClipRef
-from elastyle.model.file import load_model
 from elastyle.pipeline import transfer
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.library import prepare_style
 from tests.conftest import clip_named
-
-
-@pytest.fixture(scope="module")
-def model():  # type: ignore[no-untyped-def]
-    return load_model()
-
-
-@pytest.fixture(scope="module")
-def content(dataset_clips: list[ClipRef]) -> Motion:
-    # held-out take (take % 5 == 0) of a neutral walk
-    return clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0]
-
-
-@pytest.fixture(scope="module")
-def style_clip(dataset_clips: list[ClipRef]) -> Motion:
-    return clip_named(dataset_clips, "dataset-2_walk_active_010").read()[0]
 
 
 def _path(motion: Motion) -> np.ndarray:
