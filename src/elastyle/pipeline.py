@@ -41,7 +41,7 @@ from elastyle.model.depth import depth_warning, reconstruction_error_cm
 from elastyle.model.features import RootPath
 from elastyle.model.file import StyleModel, load_model
 from elastyle.steps.action import action_channels, part_channels, walks_backwards
-from elastyle.steps.cleanup import plant_feet
+from elastyle.steps.cleanup import lift_to_ground, plant_feet
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.decode import (
     blend_by_strength,
@@ -215,6 +215,9 @@ def transfer(
         if coloured_at is not None and config.cleanup:  # the coloured legs' feet planted too
             motion = blend_by_strength(motion, _clean_up(motion, config), clean_share)
             motion = motion.with_joints(content_at, kept, translations=True)  # kept parts stay the content's
+        elif config.cleanup and np.any(keep[:, automatic] > 0):  # legs keeping their action stay above ground
+            motion = blend_by_strength(motion, lift_to_ground(motion), (keep > 0) * clean_share[:, None])
+            motion = motion.with_joints(content_at, kept, translations=True)
     _check_finite(motion, "foot clean-up" if config.cleanup else "decoding", content_name)
     record = explain(tracks, libraries, content_time, fps, config)
     if part_tracks:

@@ -100,6 +100,13 @@ def clean_feet(
     return Motion(skeleton, rotations, translations, motion.fps)
 
 
+def lift_to_ground(motion: Motion) -> Motion:
+    """Toes and ankles below the clip's `ground_level` lifted to it by the legs' IK, nothing else changed:
+    for legs set after the clean-up (those that keep the content's action)."""
+    limbs = find_limbs(motion.skeleton)
+    return clean_feet(motion, np.zeros((motion.num_frames, len(limbs.toes)), dtype=bool))
+
+
 def adjust_root_speed(
     motion: Motion,
     contacts: BoolArray,
