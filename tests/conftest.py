@@ -58,6 +58,24 @@ def clip_named(clips: list[ClipRef], stem: str) -> ClipRef:
     return next(c for c in clips if c.stem == stem)
 
 
+@pytest.fixture(scope="session")
+def run_pairs(dataset_clips: list[ClipRef]) -> list[tuple[str, Motion, Motion]]:
+    """Held-out runs: two neutral takes, each given the first held-out take of every other style (12 pairs,
+    named "content <- style"). A skating figure of one pair swings with small changes of the decoded feet
+    (the floor measure counts a toe that skims the floor at take-off); a set's median does not."""
+    runs = [c for c in dataset_clips if c.stem.startswith("dataset-2_run_") and int(c.stem[-3:]) % 5 == 0]
+    styles: dict[str, ClipRef] = {}
+    for clip in sorted(runs, key=lambda c: c.stem):
+        styles.setdefault(clip.stem.split("_")[2], clip)
+    contents = [clip_named(dataset_clips, f"dataset-2_run_normal_{take}") for take in ("005", "010")]
+    return [
+        (f"{content.stem} <- {style.stem}", content.read()[0], style.read()[0])
+        for content in contents
+        for name, style in styles.items()
+        if name != "normal"
+    ]
+
+
 @pytest.fixture(scope="module")
 def model():  # type: ignore[no-untyped-def]
     """The shipped model."""

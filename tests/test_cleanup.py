@@ -334,8 +334,7 @@ def _reversed(motion: Motion) -> Motion:
 @pytest.mark.parametrize(
     ("content", "style", "backward"),
     [
-        ("run_normal_010", "run_exhausted_015", False),  # short stance, flight phases; 91 cm/s before
-        ("run_masculine_005", "run_active_010", False),
+        ("run_masculine_005", "run_active_010", False),  # short stance, flight phases
         ("walk_normal_005", "walk_masculine_010", True),  # stance feet slide towards the direction of travel
     ],
 )
@@ -353,6 +352,23 @@ def test_transfers_of_runs_and_backward_walks_keep_feet_planted(
     output = transfer(clips[0], clips[1]).motion
     unplanted = transfer(clips[0], clips[1], cleanup=False).motion
     assert floor_skating_cm_s(output) <= 8.0 < floor_skating_cm_s(unplanted)
+
+
+@pytest.mark.slow
+def test_runs_of_every_style_keep_feet_planted(run_pairs: list[tuple[str, Motion, Motion]]) -> None:
+    """Over held-out runs given each style, skate as an independent benchmark measures it: every output
+    below its unplanted self, the set's median at most 8 cm/s (real runs: about 5)."""
+    from elastyle import transfer
+    from elastyle.eval.metrics import floor_skating_cm_s
+
+    planted, unplanted = (
+        np.array([floor_skating_cm_s(transfer(c, s, cleanup=clean).motion) for _, c, s in run_pairs])
+        for clean in (True, False)
+    )
+    assert np.all(planted < unplanted), [
+        name for (name, _, _), p, u in zip(run_pairs, planted, unplanted) if p >= u
+    ]
+    assert np.median(planted) <= 8.0, planted
 
 
 def test_a_skeleton_without_toes_is_left_as_it_is() -> None:

@@ -236,18 +236,27 @@ def _cli(*args: str) -> subprocess.CompletedProcess[str]:
 
 
 @pytest.mark.slow
-def test_the_same_pair_skates_alike_at_30_and_60_fps(dataset_clips: list[ClipRef]) -> None:
+def test_a_clip_at_60_fps_skates_no_more_than_at_30(
+    dataset_clips: list[ClipRef], run_pairs: list[tuple[str, Motion, Motion]]
+) -> None:
+    """The clean-up at the content's own rate: a walk pair alike at both rates, and held-out runs at 60 fps no
+    worse than at 30 (the set's median; at 60 fps the clean-up sees a run's short contacts in more frames)."""
     from elastyle import transfer
     from elastyle.eval.metrics import floor_skating_cm_s
 
-    for stem, style_stem in (("walk_normal_005", "walk_elderly_010"), ("run_normal_005", "run_elderly_025")):
-        content = clip_named(dataset_clips, f"dataset-2_{stem}").read()[0]
-        style = clip_named(dataset_clips, f"dataset-2_{style_stem}").read()[0]
+    def at_both_rates(content: Motion, style: Motion) -> tuple[float, float]:
         at_30 = floor_skating_cm_s(transfer(content, style).motion)
         # measured at 30 fps, as an independent benchmark would (the floor measure itself depends on the rate)
-        at_60 = floor_skating_cm_s(transfer(content.resample(60), style).motion.resample(30))
-        # within a fifth, or 1 cm/s where both are small (real clips skate about 6 cm/s by this measure)
-        assert at_60 == pytest.approx(at_30, rel=0.2, abs=1.0), stem
+        return at_30, floor_skating_cm_s(transfer(content.resample(60), style).motion.resample(30))
+
+    walk, elderly = (
+        clip_named(dataset_clips, f"dataset-2_{s}").read()[0] for s in ("walk_normal_005", "walk_elderly_010")
+    )
+    at_30, at_60 = at_both_rates(walk, elderly)
+    # within a fifth, or 1 cm/s where both are small (real clips skate about 6 cm/s by this measure)
+    assert at_60 == pytest.approx(at_30, rel=0.2, abs=1.0)
+    runs_30, runs_60 = np.median([at_both_rates(content, style) for _, content, style in run_pairs], axis=0)
+    assert runs_60 <= 1.2 * runs_30 + 1.0, (runs_30, runs_60)
 
 
 @pytest.mark.slow
