@@ -101,11 +101,13 @@ def blend_by_strength(before: Motion, after: Motion, strength: FloatArray) -> Mo
     if np.all(strength >= 1):
         return after
     weight = np.clip(strength, 0.0, 1.0)
-    weight = (weight[:, None] if weight.ndim == 1 else weight)[:, :, None]  # (T, 1 or J, 1)
-    before_quats = to_quat(before.rotations)  # (T, J, 4); its conjugate is the inverse
-    inverse = before_quats * np.array([-1.0, -1.0, -1.0, 1.0])
-    change = canonical_log(quat_multiply(inverse, to_quat(after.rotations)))
-    rotations = canonical_log(quat_multiply(before_quats, to_quat(weight * change)))
-    rotations = np.where(weight >= 1, after.rotations, np.where(weight <= 0, before.rotations, rotations))
-    translations = before.translations + weight * (after.translations - before.translations)
+    weight = np.broadcast_to(weight[:, None] if weight.ndim == 1 else weight, before.rotations.shape[:2])
+    rotations = np.where((weight >= 1)[:, :, None], after.rotations, before.rotations)  # (T, J, 3)
+    mixed = (weight > 0) & (weight < 1)  # (T, J): only these need the slerp
+    if np.any(mixed):
+        before_quats = to_quat(before.rotations[mixed])  # (M, 4); its conjugate is the inverse
+        inverse = before_quats * np.array([-1.0, -1.0, -1.0, 1.0])
+        change = canonical_log(quat_multiply(inverse, to_quat(after.rotations[mixed])))  # (M, 3)
+        rotations[mixed] = canonical_log(quat_multiply(before_quats, to_quat(weight[mixed][:, None] * change)))
+    translations = before.translations + weight[:, :, None] * (after.translations - before.translations)
     return Motion(after.skeleton, rotations, translations, after.fps)
