@@ -108,6 +108,8 @@ def blend_by_strength(before: Motion, after: Motion, strength: FloatArray) -> Mo
         before_quats = to_quat(before.rotations[mixed])  # (M, 4); its conjugate is the inverse
         inverse = before_quats * np.array([-1.0, -1.0, -1.0, 1.0])
         change = canonical_log(quat_multiply(inverse, to_quat(after.rotations[mixed])))  # (M, 3)
-        rotations[mixed] = canonical_log(quat_multiply(before_quats, to_quat(weight[mixed][:, None] * change)))
+        rotations[mixed] = canonical_log(
+            quat_multiply(before_quats, to_quat(weight[mixed][:, None] * change))
+        )
     translations = before.translations + weight[:, :, None] * (after.translations - before.translations)
     return Motion(after.skeleton, rotations, translations, after.fps)
