@@ -11,7 +11,7 @@ from elastyle.core.skeleton import Skeleton
 from elastyle.eval.metrics import foot_skating_cm_s, jerk
 from elastyle.io.bvh_read import parse_bvh
 from elastyle.io.dataset import ClipRef
-from elastyle.steps.cleanup import adjust_root_speed, clean_feet, plant_feet
+from elastyle.steps.cleanup import adjust_root_speed, clean_feet, lift_to_ground, plant_feet
 from elastyle.steps.contacts import HEEL, TOE, detect_contacts, detect_point_contacts, ground_level, mask_runs
 from elastyle.types import BoolArray, FloatArray
 from tests.conftest import THREE_CHANNEL_BVH, clip_named
@@ -200,6 +200,29 @@ def test_standing_still_changes_nothing(walk_clip: ClipRef) -> None:
         np.testing.assert_allclose(cleaned.translations, still.translations, atol=1e-6)
 
 
+def test_lift_to_ground_lifts_sunk_feet_and_nothing_else(walk_clip: ClipRef) -> None:
+    """Five frames whose pelvis sinks 3 cm put the feet through the floor: they are lifted to the ground
+    level by the legs, and every frame whose toes and ankles are above it stays where it was (within 0.01 cm)."""
+    motion = walk_clip.read()[0]
+    translations = motion.translations.copy()
+    translations[40:45, motion.skeleton.pelvis, 1] -= 3.0 / centimetres_per_unit(motion.skeleton)
+    sunk = Motion(motion.skeleton, motion.rotations, translations, motion.fps)
+    limbs = find_limbs(sunk.skeleton)
+    ground = ground_level(sunk)
+    heights = sunk.positions()[:, np.concatenate([limbs.toes, limbs.ankles]), 1]  # (T, 2F)
+    lifted = lift_to_ground(sunk)
+    after = lifted.positions()[:, np.concatenate([limbs.toes, limbs.ankles]), 1]
+    assert heights[40:45].min() < ground - 1.0 / centimetres_per_unit(
+        sunk.skeleton
+    )  # really through the floor
+    assert after.min() >= ground - 1e-6
+    above = np.all(heights >= ground, axis=1)
+    cm = centimetres_per_unit(sunk.skeleton)
+    np.testing.assert_allclose(lifted.positions()[above] * cm, sunk.positions()[above] * cm, atol=0.01)
+    np.testing.assert_allclose(lifted.translations, sunk.translations, atol=1e-6)  # the pelvis stays
+    check_cleaned(sunk, lifted)
+
+
 def test_single_frame_and_bad_contacts(walk_clip: ClipRef) -> None:
     motion = walk_clip.read()[0].slice(0, 1)
     contacts = detect_contacts(motion)
@@ -356,8 +379,8 @@ def test_transfers_of_runs_and_backward_walks_keep_feet_planted(
 
 @pytest.mark.slow
 def test_runs_of_every_style_keep_feet_planted(run_pairs: list[tuple[str, Motion, Motion]]) -> None:
-    """Over held-out runs given each style, skate as an independent benchmark measures it: every output
-    below its unplanted self, the set's median at most 8 cm/s (real runs: about 5)."""
+    """Over held-out runs given each style, skate as an independent benchmark measures it: every output at
+    most half its unplanted self, the set's median at most 3 cm/s (real runs: about 5)."""
     from elastyle import transfer
     from elastyle.eval.metrics import floor_skating_cm_s
 
@@ -365,10 +388,9 @@ def test_runs_of_every_style_keep_feet_planted(run_pairs: list[tuple[str, Motion
         np.array([floor_skating_cm_s(transfer(c, s, cleanup=clean).motion) for _, c, s in run_pairs])
         for clean in (True, False)
     )
-    assert np.all(planted < unplanted), [
-        name for (name, _, _), p, u in zip(run_pairs, planted, unplanted) if p >= u
-    ]
-    assert np.median(planted) <= 8.0, planted
+    halved = planted <= 0.5 * unplanted  # each pair: the clean-up takes off at least half
+    assert np.all(halved), [name for (name, _, _), ok in zip(run_pairs, halved) if not ok]
+    assert np.median(planted) <= 3.0, planted  # measured: 0.35 to 0.63 cm/s
 
 
 def test_a_skeleton_without_toes_is_left_as_it_is() -> None:
@@ -382,6 +404,7 @@ def test_a_skeleton_without_toes_is_left_as_it_is() -> None:
         adjust_root_speed(motion, np.zeros((4, 0), dtype=bool)),
         clean_feet(motion),
         plant_feet(motion, 0.5),
+        lift_to_ground(motion),
     ):
         np.testing.assert_array_equal(cleaned.translations, motion.translations)
         np.testing.assert_array_equal(cleaned.rotations, motion.rotations)
