@@ -87,7 +87,8 @@ def size_factor(clip: Skeleton, reference: Skeleton) -> float:
 
     A model reads clips at its own skeleton's size and trains on clips brought to its first clip's: some
     features are lengths (the pelvis's height and sway), so read raw, held-out takes 10 % shorter or taller
-    reconstruct with 4.4 and 2.2 cm median joint error instead of 0.49, and a clip in metres is unreadable.
+    reconstructed with 4.4 and 2.2 cm median joint error instead of 0.49 (the previous model), and a clip in
+    metres is unreadable.
     """
     unit = centimetres_per_unit(clip) / centimetres_per_unit(reference)
     height, reference_height = clip.height() * unit, reference.height()

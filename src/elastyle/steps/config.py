@@ -95,8 +95,9 @@ class TransferConfig:
         0.0,
         "matching compares a content patch and a style window on frames this far apart, seconds (0: every "
         "frame; 0.067, every other frame at 30 fps, halves the search's arithmetic for a long style library "
-        "but picks other windows among near-equal ones: on the referee, walk timing error 0.06 -> 0.16, turn "
-        "naturalness 2.29 -> 2.51, cross style / content recognised 0.78 / 0.83 -> 0.72 / 0.78)",
+        "but picks other windows among near-equal ones: on the referee with the previous model, walk timing "
+        "error 0.06 -> 0.16, turn naturalness 2.29 -> 2.51, cross style / content recognised 0.78 / 0.83 -> "
+        "0.72 / 0.78)",
         low=0.0, high=1.0,
     )  # fmt: skip
     fallback_below: float = option(
