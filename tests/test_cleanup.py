@@ -223,6 +223,32 @@ def test_lift_to_ground_lifts_sunk_feet_and_nothing_else(walk_clip: ClipRef) -> 
     check_cleaned(sunk, lifted)
 
 
+def test_plant_feet_holds_contacts_given_from_elsewhere(
+    walk_clip: ClipRef, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Contacts passed in (legs that step as the content does take the content's) are held as well as the
+    ones found: none changes nothing, and a stance the detector misses is held when it is given."""
+    import elastyle.steps.cleanup as cleanup
+
+    motion = walk_clip.read()[0]
+    found = detect_contacts(motion)
+    plain = plant_feet(motion, 0.5)
+    np.testing.assert_array_equal(plant_feet(motion, 0.5, np.zeros_like(found)).rotations, plain.rotations)
+    start, stop = next((a, b) for a, b in mask_runs(found[:, 0]) if a > 0 and b - a >= 10)
+    missed = found.copy()
+    missed[start:stop, 0] = False  # as if the stance slid too fast to be found
+    monkeypatch.setattr(cleanup, "detect_contacts", lambda m, p=None: missed.copy())
+    toe = find_limbs(motion.skeleton).toes[0]
+    middle = slice(start + 2, stop - 2)
+
+    def toe_step_cm(m: Motion) -> float:
+        path = m.positions()[middle, toe][:, [0, 2]] * centimetres_per_unit(m.skeleton)
+        return float(np.abs(np.diff(path, axis=0)).sum())
+
+    unheld, given = plant_feet(motion, 0.5), plant_feet(motion, 0.5, found)
+    assert toe_step_cm(given) < 0.5 * toe_step_cm(unheld)
+
+
 def test_single_frame_and_bad_contacts(walk_clip: ClipRef) -> None:
     motion = walk_clip.read()[0].slice(0, 1)
     contacts = detect_contacts(motion)

@@ -33,7 +33,7 @@ import numpy as np
 
 from elastyle.core.body import no_legs_note
 from elastyle.core.motion import Motion
-from elastyle.core.parts import parse_parts, part_joints
+from elastyle.core.parts import body_parts, parse_parts, part_joints
 from elastyle.core.resample import interpolate_rows
 from elastyle.core.threads import one_blas_thread
 from elastyle.errors import ClipTooShortError, ConfigError, ResultError
@@ -43,6 +43,7 @@ from elastyle.model.file import StyleModel, load_model
 from elastyle.steps.action import action_channels, part_channels, walks_backwards
 from elastyle.steps.cleanup import lift_to_ground, plant_feet
 from elastyle.steps.config import TransferConfig
+from elastyle.steps.contacts import detect_contacts
 from elastyle.steps.decode import (
     blend_by_strength,
     compose_residual,
@@ -213,7 +214,14 @@ def transfer(
         target = keep_target(content_at, styled_at, reference, keep, kept, strength_out, coloured_at, colour)
         motion = blend_by_strength(motion, target, keep)
         if coloured_at is not None and config.cleanup:  # the coloured legs' feet planted too
-            motion = blend_by_strength(motion, _clean_up(motion, config), clean_share)
+            # where the legs keep the content's stepping, the content's own contacts hold as well: the
+            # statistics change how the legs move, not when the feet land
+            legs = body_parts(content.skeleton)["legs"]
+            kept_legs = np.max(keep[:, legs], axis=1) > 0.5  # (N,)
+            also = detect_contacts(content_at) & kept_legs[:, None]  # (N, F)
+            motion = blend_by_strength(
+                motion, plant_feet(motion, config.root_follows_legs, also), clean_share
+            )
             motion = motion.with_joints(content_at, kept, translations=True)  # kept parts stay the content's
         elif config.cleanup and np.any(keep[:, automatic] > 0):  # legs keeping their action stay above ground
             motion = blend_by_strength(motion, lift_to_ground(motion), (keep > 0) * clean_share[:, None])

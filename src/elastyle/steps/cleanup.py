@@ -22,15 +22,18 @@ ROOT_TOLERANCE_OF_PATH = 0.1  # the adjusted root strays at most this fraction o
 SOFT_REACH = 0.995  # IK straightens a knee up to this fraction of the leg's reach before lowering the pelvis
 
 
-def plant_feet(motion: Motion, root_share: float) -> Motion:
+def plant_feet(motion: Motion, root_share: float, also: BoolArray | None = None) -> Motion:
     """The whole clean-up: contacts found, the root moved by `root_share` of the stance feet's drift
     (`adjust_root_speed`, skipped at 0), then the feet pinned (`clean_feet`). One forward kinematics pass
-    serves all three: moving the root moves the legs with it and turns nothing."""
+    serves all three: moving the root moves the legs with it and turns nothing. also: (T, F) contacts known
+    from elsewhere, added to those found (legs that step as another clip does take its contacts)."""
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0 or root_share <= 0:
         return clean_feet(motion)
     world_rotations, positions = motion.world(limbs.feet)
     contacts = detect_contacts(motion, positions)
+    if also is not None:
+        contacts = contacts | also
     shift = _root_shift(motion, contacts, (world_rotations, positions), root_share)  # (T, 3) world
     moved = Motion(
         skeleton, motion.rotations.copy(), _shift_pelvis(motion, world_rotations, shift), motion.fps
