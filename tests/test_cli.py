@@ -137,6 +137,14 @@ def test_errors_are_one_line_with_exit_codes(walk: str, tmp_path: Path) -> None:
     assert usage.returncode == 2 and "--at" in usage.stderr
     missing = run("info", str(tmp_path / "nope.bvh"))
     assert missing.returncode == 1 and "no such file" in missing.stderr
+    both = run(
+        "transfer", str(tmp_path / "nope.bvh"), "--style", str(tmp_path / "nostyle.bvh"), "-o", str(out)
+    )
+    assert (
+        both.returncode == 1
+        and both.stderr.strip()
+        == f"elastyle: error: {tmp_path / 'nope.bvh'}: no such file, folder or archive"
+    )
     assert "Traceback" not in missing.stderr + mismatch.stderr + result.stderr
 
 

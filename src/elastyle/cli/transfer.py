@@ -172,6 +172,9 @@ def run_transfer(args: argparse.Namespace) -> int:
     if args.scheduler and len(args.content) > 1:
         require_dask()
     _check_inputs_readable(_inputs(args))
+    for spec in args.content:  # a missing content file is named before any work on the style
+        if not Path(spec).exists() and ".zip" not in spec.lower():
+            find_clips([spec])
     if args.explain:
         check_output_path(args.explain, force=args.force, inputs=(*_inputs(args), *map(str, targets)))
     model = load_model(args.model)
