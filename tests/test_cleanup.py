@@ -245,8 +245,11 @@ def test_plant_feet_holds_contacts_given_from_elsewhere(
         path = m.positions()[middle, toe][:, [0, 2]] * centimetres_per_unit(m.skeleton)
         return float(np.abs(np.diff(path, axis=0)).sum())
 
-    unheld, given = plant_feet(motion, 0.5), plant_feet(motion, 0.5, found)
-    assert toe_step_cm(given) < 0.5 * toe_step_cm(unheld)
+    for share in (0.5, 0.0):  # with the root following the legs or not
+        unheld, given = plant_feet(motion, share), plant_feet(motion, share, found)
+        assert toe_step_cm(given) < 0.5 * toe_step_cm(unheld), share
+    with pytest.raises(ValueError, match="contacts must be"):
+        plant_feet(motion, 0.5, found[:1])
 
 
 def test_single_frame_and_bad_contacts(walk_clip: ClipRef) -> None:

@@ -28,12 +28,14 @@ def plant_feet(motion: Motion, root_share: float, also: BoolArray | None = None)
     serves all three: moving the root moves the legs with it and turns nothing. also: (T, F) contacts known
     from elsewhere, added to those found (legs that step as another clip does take its contacts)."""
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
-    if len(limbs.toes) == 0 or root_share <= 0:
+    if len(limbs.toes) == 0:
         return clean_feet(motion)
     world_rotations, positions = motion.world(limbs.feet)
     contacts = detect_contacts(motion, positions)
     if also is not None:
-        contacts = contacts | also
+        contacts = contacts | _checked(also, motion, limbs)
+    if root_share <= 0:
+        return clean_feet(motion, contacts, world=(world_rotations, positions))
     shift = _root_shift(motion, contacts, (world_rotations, positions), root_share)  # (T, 3) world
     moved = Motion(
         skeleton, motion.rotations.copy(), _shift_pelvis(motion, world_rotations, shift), motion.fps
