@@ -213,17 +213,18 @@ def transfer(
                 reference = frames_of(base, positions)
         target = keep_target(content_at, styled_at, reference, keep, kept, strength_out, coloured_at, colour)
         motion = blend_by_strength(motion, target, keep)
+        legs = body_parts(content.skeleton).get("legs", np.zeros(0, dtype=np.int64))
         if coloured_at is not None and config.cleanup:  # the coloured legs' feet planted too
             # where the legs keep the content's stepping, the content's own contacts hold as well: the
             # statistics change how the legs move, not when the feet land
-            legs = body_parts(content.skeleton)["legs"]
             kept_legs = np.max(keep[:, legs], axis=1) > 0.5  # (N,)
             also = detect_contacts(content_at) & kept_legs[:, None]  # (N, F)
             motion = blend_by_strength(
                 motion, plant_feet(motion, config.root_follows_legs, also), clean_share
             )
             motion = motion.with_joints(content_at, kept, translations=True)  # kept parts stay the content's
-        elif config.cleanup and np.any(keep[:, automatic] > 0):  # legs keeping their action stay above ground
+        elif config.cleanup and np.any(keep[:, np.intersect1d(legs, automatic)] > 0):
+            # legs keeping the content's action stay above the output's ground
             motion = blend_by_strength(motion, lift_to_ground(motion), (keep > 0) * clean_share[:, None])
             motion = motion.with_joints(content_at, kept, translations=True)
     _check_finite(motion, "foot clean-up" if config.cleanup else "decoding", content_name)
