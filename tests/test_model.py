@@ -31,8 +31,6 @@ def test_numpy_forward_matches_torch(tied: bool) -> None:
     features = x[0].T.numpy()
     np.testing.assert_allclose(numpy_model.encode(features), latents_torch, atol=1e-5)
     np.testing.assert_allclose(numpy_model.decode(latents_torch), output_torch, atol=1e-5)
-    rows = np.array([0, 1, 7, 44, 88, 89])  # the clip's edges, where the kernel reaches past them, and within
-    np.testing.assert_allclose(numpy_model.decode(latents_torch, rows), output_torch[rows], atol=1e-5)
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from elastyle.core.smoothing import pad_edges
 from elastyle.model.config import ModelConfig
-from elastyle.types import AnyFloatArray, Float32Array, IntArray
+from elastyle.types import AnyFloatArray, Float32Array
 
 
 class AutoencoderWeights(NamedTuple):
@@ -69,21 +69,6 @@ def _conv_transpose_same(h: Float32Array, taps: Float32Array, kernel: int) -> Fl
     return out[pad : pad + num_frames]
 
 
-def _conv_transpose_rows(h: Float32Array, stacked: Float32Array, kernel: int, rows: IntArray) -> Float32Array:
-    """Rows `rows` (R,) of `_conv_transpose_same`'s output for h (T, C_out), from weight taps stacked by
-    offset (K * C_out, C_in) (`_stacked_taps`): y[t] = sum_k h[t + pad - k] W[:, :, k], zero outside h."""
-    num_frames = h.shape[0]
-    sources = rows[:, None] + kernel // 2 - np.arange(kernel)  # (R, K) the frames of h each row reads
-    inside = (sources >= 0) & (sources < num_frames)
-    gathered = h[np.clip(sources, 0, num_frames - 1)] * inside[:, :, None]  # (R, K, C_out)
-    return gathered.reshape(len(rows), -1) @ stacked
-
-
-def _stacked_taps(weight: Float32Array) -> Float32Array:
-    """Weight (C_out, C_in, K) as (K * C_out, C_in), offset by offset, for `_conv_transpose_rows`."""
-    return np.ascontiguousarray(weight.transpose(2, 0, 1)).reshape(-1, weight.shape[1])
-
-
 class Autoencoder:
     """encode: normalised features (T, C) -> latents (T, Z); decode: latents -> features."""
 
@@ -93,30 +78,21 @@ class Autoencoder:
         second, first = (weights.conv2, weights.conv1) if config.tied else (weights.deconv2, weights.deconv1)
         assert second is not None and first is not None, "an untied model needs its decoder weights"
         self._decoder_taps = (_transpose_taps(second), _transpose_taps(first))  # (Z, H), (H, K * C)
-        self._decoder_rows = _stacked_taps(first)  # (K * H, C): the last layer at chosen frames
 
     def encode(self, features: AnyFloatArray) -> Float32Array:
         w = self.weights
         hidden = np.maximum(_conv_same(features.astype(np.float32), w.conv1, w.bias1), 0.0)  # (T, H)
         return np.maximum(_conv_same(hidden, w.conv2, w.bias2), 0.0)  # (T, Z)
 
-    def decode(self, latents: AnyFloatArray, rows: IntArray | None = None) -> Float32Array:
-        """Features (T, C) of latents (T, Z), or only their rows `rows` (R,) -> (R, C) (the same values,
-        for a fraction of the last layer's cost)."""
+    def decode(self, latents: AnyFloatArray) -> Float32Array:
         w = self.weights
         latents = latents.astype(np.float32)
         second, first = self._decoder_taps
         kernel = w.conv1.shape[2]
-
-        def last(hidden: Float32Array) -> Float32Array:
-            if rows is None:
-                return _conv_transpose_same(hidden, first, kernel)
-            return _conv_transpose_rows(hidden, self._decoder_rows, kernel, rows)
-
         if self.config.tied:
             # the report's inverse: subtract the bias, then the transposed convolution with the same weights
             hidden = np.maximum(_conv_transpose_same(latents - w.bias2, second, 1), 0.0)  # (T, H)
-            return last(hidden - w.bias1)  # (T, C)
+            return _conv_transpose_same(hidden - w.bias1, first, kernel)  # (T, C)
         assert w.debias2 is not None and w.debias1 is not None
         hidden = np.maximum(_conv_transpose_same(latents, second, 1) + w.debias2, 0.0)
-        return last(hidden) + w.debias1
+        return _conv_transpose_same(hidden, first, kernel) + w.debias1

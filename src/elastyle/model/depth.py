@@ -33,7 +33,7 @@ def reconstruction_error_cm(model: StyleModel, motion: Motion, latents: FloatArr
     """Mean joint position error (cm, relative to the pelvis) of a clip at the model's frame rate (T frames)
     read back from its own latents (T, Z) on its own root path, over every `EVERY_FRAMES`-th frame."""
     frames = np.arange(0, motion.num_frames, EVERY_FRAMES)
-    features = model.decode_latents(latents, rows=frames)
+    features = model.decode_latents(latents)[frames]
     decoded = model.features.decode(features, root.sample(frames.astype(np.float64)), model.fps)
     pelvis = motion.skeleton.pelvis
     sampled = Motion(motion.skeleton, motion.rotations[frames], motion.translations[frames], motion.fps)

@@ -25,7 +25,7 @@ from elastyle.io.files import input_problem, write_bytes_atomic
 from elastyle.model.autoencoder import Autoencoder, AutoencoderWeights
 from elastyle.model.config import ModelConfig
 from elastyle.model.features import FeatureSpec, RootPath
-from elastyle.types import FloatArray, IntArray
+from elastyle.types import FloatArray
 
 FORMAT_VERSION = 1
 PRETRAINED_NAME = "bandai-namco-2.npz"
@@ -66,14 +66,9 @@ class StyleModel:
         features, root = self.features.encode(motion)
         return self.autoencoder.encode(self.normalise(features)).astype(np.float64), root
 
-    def decode_latents(
-        self, latents: FloatArray, smooth_s: float = 0.0, rows: IntArray | None = None
-    ) -> FloatArray:
-        """Features (T, C) from latents (T, Z), low-passed along time by a Gaussian of `smooth_s` seconds; or
-        only the rows `rows` (R,) of the unsmoothed features -> (R, C)."""
-        if rows is not None and smooth_s > 0:
-            raise ValueError("rows of the decoded features are taken unsmoothed (smooth_s 0)")
-        features = self.denormalise(self.autoencoder.decode(latents, rows).astype(np.float64))
+    def decode_latents(self, latents: FloatArray, smooth_s: float = 0.0) -> FloatArray:
+        """Features (T, C) from latents (T, Z), low-passed along time by a Gaussian of `smooth_s` seconds."""
+        features = self.denormalise(self.autoencoder.decode(latents).astype(np.float64))
         return smooth(features, smooth_s * self.fps)
 
     def check_clip(self, motion: Motion, what: str) -> None:
