@@ -57,7 +57,7 @@ from elastyle.steps.library import StyleLibrary, as_library
 from elastyle.steps.schedule import Schedule
 from elastyle.steps.timeline import content_grid, mix_tracks, on_output_frames, output_content_times
 from elastyle.steps.track import style_track
-from elastyle.types import FloatArray
+from elastyle.types import BoolArray, FloatArray
 
 StyleInput = Motion | Sequence[Motion] | StyleLibrary
 log = logging.getLogger(__name__)
@@ -219,9 +219,7 @@ def transfer(
             # statistics change how the legs move, not when the feet land
             kept_legs = np.max(keep[:, legs], axis=1) > 0.5  # (N,)
             also = detect_contacts(content_at) & kept_legs[:, None]  # (N, F)
-            motion = blend_by_strength(
-                motion, plant_feet(motion, config.root_follows_legs, also), clean_share
-            )
+            motion = blend_by_strength(motion, _clean_up(motion, config, also), clean_share)
             motion = motion.with_joints(content_at, kept, translations=True)  # kept parts stay the content's
         elif config.cleanup and np.any(keep[:, np.intersect1d(legs, automatic)] > 0):
             # legs keeping the content's action stay above the output's ground
@@ -263,9 +261,10 @@ def _decoded(
     return decode_plain(model, on_output_frames(latents, grid, content_time), root, config.smooth_s)
 
 
-def _clean_up(motion: Motion, config: TransferConfig) -> Motion:
-    """Feet planted, after the root has taken its share of the stance feet's drift."""
-    return plant_feet(motion, config.root_follows_legs)
+def _clean_up(motion: Motion, config: TransferConfig, also: BoolArray | None = None) -> Motion:
+    """Feet planted, after the root has taken its share of the stance feet's drift; also: (N, F) contacts
+    known from elsewhere, held besides those found."""
+    return plant_feet(motion, config.root_follows_legs, also)
 
 
 def _check_finite(motion: Motion, step: str, content_name: str) -> None:
