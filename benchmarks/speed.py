@@ -136,7 +136,7 @@ def run_case(name: str, model, content: Motion, style_motions: list[Motion], ste
 OPTIONS = TransferConfig()
 
 
-def _option(text: str) -> tuple[str, object]:
+def config_option(text: str) -> tuple[str, object]:
     """NAME=VALUE as a TransferConfig field and its value (numbers as floats, true/false as booleans)."""
     name, _, value = text.partition("=")
     if value in ("true", "false"):
@@ -164,7 +164,7 @@ def main() -> int:
     # would otherwise print on every timed transfer
     logging.getLogger("elastyle").setLevel(logging.ERROR)
     global OPTIONS
-    OPTIONS = TransferConfig.of(None, **dict(_option(text) for text in args.option))
+    OPTIONS = TransferConfig.of(None, **dict(config_option(text) for text in args.option))
     model = load_model(args.model)
     walks = [c.read()[0] for c in find_clips([args.data], pattern="*_walk_*")[:: 2 if args.quick else 1]]
     neutral = [m for m in walks][:20]
