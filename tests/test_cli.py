@@ -211,3 +211,18 @@ def test_a_missing_clip_inside_an_archive_is_no_such_file(walk: str, style: str,
     assert result.returncode == 1 and result.stderr.strip().startswith(
         f"elastyle: error: {missing}: no such file"
     )
+
+
+def test_a_repeated_keep_part_adds_its_parts() -> None:
+    from elastyle.cli import build_parser
+    from elastyle.cli.options import config_from_args
+    from elastyle.steps.config import TransferConfig
+
+    def kept(*flags: str) -> str:
+        args = build_parser().parse_args(["transfer", "c.bvh", "--style", "s.bvh", "-o", "o.bvh", *flags])
+        return config_from_args(TransferConfig, args).keep_part
+
+    assert kept() == ""
+    assert kept("--keep-part", "legs") == "legs"
+    assert kept("--keep-part", "legs", "--keep-part", "arms") == "legs,arms"
+    assert kept("--keep-part", "legs,spine", "--keep-part", "left-arm") == "legs,spine,left-arm"

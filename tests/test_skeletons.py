@@ -19,7 +19,8 @@ from elastyle.core.motion import Motion
 from elastyle.core.parts import body_parts
 from elastyle.core.skeleton import Skeleton
 from elastyle.eval.metrics import cadence_steps_s
-from elastyle.io.dataset import ClipRef
+from elastyle.io.dataset import ClipRef, is_held_out
+from elastyle.model.file import load_model
 from elastyle.steps.cleanup import clean_feet
 from tests.conftest import THREE_CHANNEL_BVH, clip_named
 
@@ -213,6 +214,10 @@ def test_a_cmu_skeleton_at_120_fps_end_to_end(tmp_path: Path, dataset_clips: lis
     train = [str(p) for p in clips.values()]
     result = _cli("train", *train, "-o", str(model), "--steps", "30", "--batch-size", "4", "--no-progress")
     assert result.returncode == 0, result.stderr
+    held_out = [p for p in train if is_held_out(ClipRef(p))]
+    # calibrated on the clips held out, or told how to calibrate it when none was
+    assert ("reconstruction_warn_cm" in load_model(model).metadata) == bool(held_out)
+    assert ("elastyle calibrate" in result.stderr) == (not held_out)
     outputs = {}
     for cleanup in ("", "--no-cleanup"):
         out = tmp_path / f"out{cleanup}.bvh"

@@ -27,10 +27,19 @@ def add_config_flags(parser: argparse.ArgumentParser, config_type: type) -> None
             continue
         choices = spec.metadata.get("choices")
         kind = str if spec.metadata.get("text") or not isinstance(default, (int, float)) else type(default)
+        stored: str | type[argparse.Action] = _Extended if spec.metadata.get("listed") else "store"
         parser.add_argument(
-            f"--{flag}", dest=spec.name, type=kind, choices=choices, default=default,
+            f"--{flag}", dest=spec.name, action=stored, type=kind, choices=choices, default=default,
             help=f"{help_text} (default: {_shown(default)})",
         )  # fmt: skip
+
+
+class _Extended(argparse.Action):
+    """A comma-separated list flag: each repeat adds its items to those given before (not the default)."""
+
+    def __call__(self, parser: Any, namespace: argparse.Namespace, values: Any, option: Any = None) -> None:
+        given = getattr(namespace, self.dest)
+        setattr(namespace, self.dest, values if given in ("", self.default) else f"{given},{values}")
 
 
 def config_from_args(config_type: type, args: argparse.Namespace) -> Any:

@@ -17,7 +17,7 @@ def add_train_commands(commands: Any) -> None:
         "train",
         help="train an autoencoder on BVH clips (needs elastyle[train])",
         description="Train a model for your own skeleton on its BVH clips (every clip one skeleton; other "
-        "units and body sizes are brought to the first clip's). Takes numbered %% 5 == 0 (or, without a "
+        "units and body sizes are brought to the first clip's). Takes numbered % 5 == 0 (or, without a "
         "take number, one name in five by its checksum) are held out to measure the model and set its "
         "out-of-depth warning. MODEL.npz.ckpt is written as training goes; --resume continues it.",
     )

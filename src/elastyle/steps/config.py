@@ -34,10 +34,12 @@ def option(
     low_open: bool = False,
     high_open: bool = False,
     text: bool = False,
+    listed: bool = False,
 ) -> Any:
     """A config field with its command-line help and allowed values ([low, high], ends open if asked);
-    `text`: the flag's value is passed on as written (a number or keyframes)."""
-    metadata = {"help": help, "choices": choices, "low": low, "high": high, "text": text}
+    `text`: the flag's value is passed on as written (a number or keyframes); `listed`: a comma-separated
+    list, which a repeated flag extends."""
+    metadata = {"help": help, "choices": choices, "low": low, "high": high, "text": text, "listed": listed}
     metadata |= {"low_open": low_open, "high_open": high_open}
     return field(default=default, metadata=metadata)
 
@@ -146,8 +148,9 @@ class TransferConfig:
     )  # fmt: skip
     keep_part: str = option(
         "",
-        "body parts performed as in the content (comma-separated: legs, spine, left-arm, right-arm, arms); "
-        "kept legs keep the content's pace too",
+        "body parts performed as in the content (comma-separated or repeated: legs, spine, left-arm, "
+        "right-arm, arms); kept legs keep the content's pace too",
+        listed=True,
     )
     smooth_s: float = option(
         1 / 30, "Gaussian low-pass of the decoded motion, sigma in seconds (0: none; the default is one frame at 30 fps)",

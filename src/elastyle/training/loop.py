@@ -28,7 +28,7 @@ from elastyle.core.skeleton import Skeleton
 from elastyle.errors import ElastyleError, SkeletonMismatchError
 from elastyle.io.dataset import ClipRef, find_clips, is_held_out
 from elastyle.model.autoencoder import Autoencoder
-from elastyle.model.depth import calibrate
+from elastyle.model.depth import DEFAULT_WARN_CM, calibrate
 from elastyle.model.features import FeatureSpec
 from elastyle.model.file import StyleModel, save_model
 from elastyle.training.config import TrainConfig
@@ -262,6 +262,12 @@ def train(
         f"held-out loss {val_loss:.4f}" if math.isfinite(val_loss) else "no clip held out to measure it"
     )
     log.info("wrote %s after %d steps (%.1f min), %s", output, step, elapsed / 60, measured)
+    if "reconstruction_warn_cm" not in metadata:
+        log.warning(
+            "note: %s: with no clip held out, its out-of-depth warning uses the default %.1f cm; measure it on "
+            "clips it was not trained on with 'elastyle calibrate %s CLIPS --all -o MODEL.npz'",
+            output, DEFAULT_WARN_CM, output,
+        )  # fmt: skip
     if step == resumed_at:
         log.warning("warning: %s: no training step was taken (the budget was spent before this run)", output)
     return model
