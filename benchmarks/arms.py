@@ -15,7 +15,9 @@ Each arm is labelled by what it does in its clip's content type: `swing` (walks,
 decision is right where the labels differ (another action: keep) and where they agree (another manner of
 the same action: swap). The table gives, per label pair, the patches, the median of both measures and the
 mean share kept; the summary the mean share kept over all patches of another action (want 1) and of the same
-action (want 0). The labels come from the dataset's file names and serve this measurement only.
+action (want 0). The labels come from the dataset's file names and serve this measurement only. They
+are per clip, not per moment: a raise-up's rise matched with a wave clip's own rise counts as another
+action, though swapping it is right, so a row such as raise <- wave mixes both.
 """
 
 from __future__ import annotations
