@@ -86,7 +86,19 @@ def check_output_path(
             )
     if target.exists() and not force:
         raise OutputError(f"{target}: already exists (use --force to overwrite)")
+    _check_writable(target)
     return target
+
+
+def _check_writable(target: Path) -> None:
+    """An `OutputError` now, before any work, when the target's folder takes no new file (read-only, not a
+    folder, a virtual file system): found by creating and removing a temporary file there."""
+    try:
+        temporary, handle = _create_temporary(target)
+    except OSError as error:
+        raise OutputError(f"{target}: cannot write in {target.parent}: {error.strerror or error}") from None
+    os.close(handle)
+    temporary.unlink(missing_ok=True)
 
 
 def _same_file(target: Path, source: str) -> bool:
@@ -111,7 +123,10 @@ def write_bytes_atomic(
     target with `force`, else linked to a name that must not exist yet (one of two racing writers wins)."""
     target = check_output_path(path, force=force, inputs=inputs)
     _remove_stale_temporaries(target)
-    temporary, handle = _create_temporary(target)
+    try:
+        temporary, handle = _create_temporary(target)
+    except OSError as error:
+        raise OutputError(f"{target}: write failed: {error.strerror or error}") from None
     try:
         with os.fdopen(handle, "wb") as stream:
             stream.write(data)
@@ -152,15 +167,13 @@ def _temporary_prefix(target: Path) -> str:
 
 def _create_temporary(target: Path) -> tuple[Path, int]:
     """A new hidden file beside `target` (a name no other writer holds) and its open descriptor, with the
-    user's usual permissions (0666 less the umask)."""
+    user's usual permissions (0666 less the umask); OSError where the folder takes no new file."""
     while True:
         temporary = target.with_name(f"{_temporary_prefix(target)}{os.getpid()}.{os.urandom(4).hex()}.tmp")
         try:
             return temporary, os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
         except FileExistsError:
             continue
-        except OSError as error:
-            raise OutputError(f"{target}: write failed: {error.strerror or error}") from None
 
 
 def _remove_stale_temporaries(target: Path) -> None:
