@@ -104,13 +104,32 @@ def read_explain(path: str | os.PathLike[str]) -> dict[str, Any]:
         if not isinstance(patches, list):
             raise ElastyleError(f"{path}: a style entry has no 'patches' list")
         try:
-            rows = [{key: kind(patch[key]) for key, kind in _PATCH_FIELDS} for patch in patches]
+            rows = [
+                {key: kind(patch[key]) for key, kind in _PATCH_FIELDS} | _decision(patch) for patch in patches
+            ]
             for row in rows:  # the page shows clips by name: no folder of the user's goes out
                 row["style_clip"] = PurePath(str(row["style_clip"])).name
         except (KeyError, TypeError, ValueError) as error:
             raise ElastyleError(f"{path}: a patch lacks or mangles field {error}") from None
         tracks.append({"patches": sorted(rows, key=lambda row: row["output_start_s"])})
     return {"source": Path(path).name, "styles": tracks}
+
+
+def _decision(patch: dict[str, Any]) -> dict[str, Any]:
+    """What the transfer decided for a patch, where the explain file records it (older files do not): the
+    mode (swap, blend or statistics), the statistics' share, and per body part its action mismatch and the
+    share of the content's own action kept."""
+    if "mode" not in patch:
+        return {}
+    parts = patch.get("parts") or {}
+    return {
+        "mode": str(patch["mode"]),
+        "statistics_share": float(patch.get("statistics_share", 0.0)),
+        "parts": {
+            str(name): {"mismatch": float(part["mismatch"]), "content_share": float(part["content_share"])}
+            for name, part in parts.items()
+        },
+    }
 
 
 def make_server(payload: dict[str, Any], port: int = 0) -> ThreadingHTTPServer:
