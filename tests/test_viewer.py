@@ -85,7 +85,15 @@ def write_explain(path: Path, style_clip: str) -> Path:
             "content_start_s": 1.0,
             "mode": "blend",
             "statistics_share": 0.25,
-            "parts": {"legs": {"mismatch": 0.42, "content_share": 0.6, "gait_mismatch": 0.4}},
+            "parts": {
+                "legs": {
+                    "mismatch": 0.42,
+                    "content_share": 0.6,
+                    "statistics_share": 0.3,
+                    "gait_mismatch": 0.4,
+                },
+                "left-arm": {"mismatch": 0.1, "content_share": 0.0},
+            },
         },
         {
             "output_start_s": 0.0,
@@ -123,7 +131,10 @@ def test_explain_file_is_checked_and_sorted(tmp_path: Path) -> None:
     assert "content_start_s" not in explain["styles"][0]["patches"][1]
     decided, older = explain["styles"][0]["patches"][1], explain["styles"][0]["patches"][0]
     assert decided["mode"] == "blend" and decided["statistics_share"] == 0.25
-    assert decided["parts"] == {"legs": {"mismatch": 0.42, "content_share": 0.6}}
+    assert decided["parts"] == {
+        "legs": {"mismatch": 0.42, "content_share": 0.6, "statistics_share": 0.3},
+        "left-arm": {"mismatch": 0.1, "content_share": 0.0, "statistics_share": 0.0},
+    }
     assert "mode" not in older  # a file written before modes were recorded still reads
     (tmp_path / "bad.json").write_text("{not json")
     with pytest.raises(ElastyleError, match=r"bad\.json: not a JSON explain file"):
@@ -240,7 +251,10 @@ def test_headless_browser_plays_and_draws_skeletons(
     assert frame and int(frame.group(1)) > 30, "the timeline did not advance"
     assert f"{names[0]}.bvh  frame" in dom and f"{STYLE_CLIP}.bvh  frame" in dom
     assert f"style 1: {STYLE_CLIP}.bvh (mirrored)" in dom  # t > 1 s: the second patch
-    assert "mode blend (statistics 25%)  action mismatch: legs 0.42 (content 60%)" in dom  # its decision
+    decision = (
+        "mode blend (statistics 25%)  action mismatch: legs 0.42 (content 60%, statistics 30%), left-arm 0.10"
+    )
+    assert decision in dom  # the patch's decision
 
     # 2. The screenshot shows both skeletons in their own colours on a gridded ground.
     shot = tmp_path / "view.png"

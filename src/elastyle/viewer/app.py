@@ -117,8 +117,8 @@ def read_explain(path: str | os.PathLike[str]) -> dict[str, Any]:
 
 def _decision(patch: dict[str, Any]) -> dict[str, Any]:
     """What the transfer decided for a patch, where the explain file records it (older files do not): the
-    mode (swap, blend or statistics), the statistics' share, and per body part its action mismatch and the
-    share of the content's own action kept."""
+    mode (swap, blend, statistics or content), the statistics' share, and per body part its action mismatch,
+    the share of the content's own action kept and of the style's statistics on it."""
     if "mode" not in patch:
         return {}
     parts = patch.get("parts") or {}
@@ -126,7 +126,11 @@ def _decision(patch: dict[str, Any]) -> dict[str, Any]:
         "mode": str(patch["mode"]),
         "statistics_share": float(patch.get("statistics_share", 0.0)),
         "parts": {
-            str(name): {"mismatch": float(part["mismatch"]), "content_share": float(part["content_share"])}
+            str(name): {
+                "mismatch": float(part["mismatch"]),
+                "content_share": float(part["content_share"]),
+                "statistics_share": float(part.get("statistics_share", 0.0)),
+            }
             for name, part in parts.items()
         },
     }
