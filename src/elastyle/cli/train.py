@@ -27,7 +27,9 @@ def add_train_commands(commands: Any) -> None:
     trainer.add_argument("--steps", type=int, help="step budget")
     trainer.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     trainer.add_argument(
-        "--resume", help="checkpoint to continue from (MODEL.npz.ckpt is written as training goes; with --force once the model file exists)"
+        "--resume",
+        help="checkpoint to continue from (MODEL.npz.ckpt is written as training goes; with --force once the "
+        "model file exists)",
     )
     trainer.add_argument("--batch-size", type=int, default=16, help="windows per step (default 16)")
     trainer.add_argument(
