@@ -55,6 +55,7 @@ def test_short_training_lowers_loss_and_round_trips(trained) -> None:  # type: i
     assert model.metadata["steps"] == 300
     # an untrained autoencoder's loss on normalised features is about 1 (their variance)
     assert model.metadata["held_out_loss"] < 0.5
+    assert "reconstruction_warn_cm" in model.metadata  # calibrated on the takes held out (005)
     assert model.metadata["final_train_loss"] < 0.5
     loaded = load_model(path)
     assert loaded.skeleton.names == model.skeleton.names

@@ -528,15 +528,17 @@ def test_content_paths_that_look_like_globs_and_resumed_single_outputs(
         assert len(_content_clips([f"{data_path}/bandai-namco-2/data"])) > 100
 
 
-def test_an_unwritable_output_folder_is_refused_before_any_work(
-    tmp_path: Path, dataset_clips: list[ClipRef]
-) -> None:
+def test_an_unwritable_output_folder_is_refused_before_any_work(dataset_clips: list[ClipRef]) -> None:
+    if not Path("/proc/self").is_dir():
+        pytest.skip("needs /proc: a folder that exists but takes no new file")
     walk = clip_named(dataset_clips, "dataset-2_walk_normal_005").name
     style = clip_named(dataset_clips, "dataset-2_walk_elderly_010").name
-    not_a_folder = tmp_path / "notes.txt"
-    not_a_folder.write_text("a file where a folder is expected")
-    out = not_a_folder / "out.bvh"
-    result = _cli("transfer", walk, "--style", style, "-o", str(out))
-    assert result.returncode == 1, result.stderr
-    assert result.stderr.count("\n") == 1 and "transferred" not in result.stderr  # no transfer was run
-    assert f"{out}: cannot write in {not_a_folder}" in result.stderr
+    run = clip_named(dataset_clips, "dataset-2_run_normal_005").name
+    for contents, out, folder in (
+        ([walk], "/proc/elastyle-out.bvh", "/proc"),
+        ([walk, run], "/proc/elastyle-out/", "/proc"),
+    ):
+        result = _cli("transfer", *contents, "--style", style, "-o", out)
+        assert result.returncode == 1, result.stderr
+        assert result.stderr.count("\n") == 1 and "transferred" not in result.stderr  # no transfer was run
+        assert f"cannot write in {folder}" in result.stderr, result.stderr

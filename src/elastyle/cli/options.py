@@ -27,24 +27,23 @@ def add_config_flags(parser: argparse.ArgumentParser, config_type: type) -> None
             continue
         choices = spec.metadata.get("choices")
         kind = str if spec.metadata.get("text") or not isinstance(default, (int, float)) else type(default)
-        stored: str | type[argparse.Action] = _Extended if spec.metadata.get("listed") else "store"
+        listed = bool(spec.metadata.get("listed"))  # repeats gathered, joined by `config_from_args`
         parser.add_argument(
-            f"--{flag}", dest=spec.name, action=stored, type=kind, choices=choices, default=default,
-            help=f"{help_text} (default: {_shown(default)})",
+            f"--{flag}", dest=spec.name, action="append" if listed else "store", type=kind, choices=choices,
+            default=None if listed else default, help=f"{help_text} (default: {_shown(default)})",
         )  # fmt: skip
 
 
-class _Extended(argparse.Action):
-    """A comma-separated list flag: each repeat adds its items to those given before (not the default)."""
-
-    def __call__(self, parser: Any, namespace: argparse.Namespace, values: Any, option: Any = None) -> None:
-        given = getattr(namespace, self.dest)
-        setattr(namespace, self.dest, values if given in ("", self.default) else f"{given},{values}")
-
-
 def config_from_args(config_type: type, args: argparse.Namespace) -> Any:
-    """The config built from the flags `add_config_flags` declared (validated by the config)."""
-    return config_type(**{spec.name: getattr(args, spec.name) for spec in fields(config_type)})
+    """The config built from the flags `add_config_flags` declared (validated by the config); a listed
+    field's repeats joined by commas, its default where it was not given."""
+    values = {}
+    for spec in fields(config_type):
+        value = getattr(args, spec.name)
+        if spec.metadata.get("listed"):
+            value = spec.default if value is None else ",".join(value)
+        values[spec.name] = value
+    return config_type(**values)
 
 
 def _shown(value: Any) -> str:

@@ -126,7 +126,6 @@ def _check_train_args(args: argparse.Namespace) -> None:
 def _check_train_outputs(args: argparse.Namespace) -> None:
     """The model file and its checkpoint, before any work: a `.npz` that replaces none of the inputs, in a
     folder this process can write to, and no earlier training's checkpoint lost without --force."""
-    import tempfile
     from pathlib import Path
 
     from elastyle.io.files import check_output_path
@@ -145,11 +144,6 @@ def _check_train_outputs(args: argparse.Namespace) -> None:
             f"{checkpoint}: an earlier training's checkpoint; continue it with --resume {checkpoint}, or "
             "start over with --force"
         )
-    try:
-        with tempfile.TemporaryFile(dir=target.parent or "."):
-            pass
-    except OSError as error:
-        raise OutputError(f"{target}: cannot write in {target.parent} ({error.strerror or error})") from None
 
 
 def _command_train(args: argparse.Namespace) -> int:

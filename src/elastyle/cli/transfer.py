@@ -81,7 +81,7 @@ def add_transfer_command(commands: Any) -> None:
 
 def _outputs(args: argparse.Namespace) -> tuple[list[str], list[Path]]:
     from elastyle.io.clip_write import check_output_format
-    from elastyle.io.files import check_output_path
+    from elastyle.io.files import check_output_path, check_writable
 
     contents = args.content
     inputs = _inputs(args)
@@ -105,6 +105,7 @@ def _outputs(args: argparse.Namespace) -> tuple[list[str], list[Path]]:
             raise OutputError(f"{content} and {first[target]} would both be written to {target}; rename one")
         first[target] = content
     if not output.is_dir():  # made by `run_transfer` once everything is checked: nothing exists there yet
+        check_writable(output)  # its parent takes the new folder
         return contents, targets
     if args.skip_existing and not args.force:
         kept = [(c, t) for c, t in zip(contents, targets) if not t.exists()]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import stat
+import tempfile
 from pathlib import Path
 
 from elastyle.errors import OutputError
@@ -67,11 +68,12 @@ def on_disk(spec: str | os.PathLike[str]) -> Path | None:
 
 
 def check_output_path(
-    path: str | os.PathLike[str], force: bool = False, inputs: tuple[str, ...] = ()
+    path: str | os.PathLike[str], force: bool = False, inputs: tuple[str, ...] = (), probe: bool = True
 ) -> Path:
     """Validate an output path before any work is done; returns it as a `Path`.
 
-    An output may never be one of `inputs` (files, or paths inside a zip archive), with or without force."""
+    An output may never be one of `inputs` (files, or paths inside a zip archive), with or without force.
+    probe: also check that its folder takes a new file (`check_writable`)."""
     if str(path) == "":
         raise OutputError("an empty output name; give a file name")
     target = Path(path)
@@ -86,19 +88,19 @@ def check_output_path(
             )
     if target.exists() and not force:
         raise OutputError(f"{target}: already exists (use --force to overwrite)")
-    _check_writable(target)
+    if probe:
+        check_writable(target)
     return target
 
 
-def _check_writable(target: Path) -> None:
+def check_writable(target: Path) -> None:
     """An `OutputError` now, before any work, when the target's folder takes no new file (read-only, not a
-    folder, a virtual file system): found by creating and removing a temporary file there."""
+    folder, a virtual file system): found by opening an anonymous temporary file there, which leaves none."""
     try:
-        temporary, handle = _create_temporary(target)
+        with tempfile.TemporaryFile(dir=target.parent):
+            pass
     except OSError as error:
         raise OutputError(f"{target}: cannot write in {target.parent}: {error.strerror or error}") from None
-    os.close(handle)
-    temporary.unlink(missing_ok=True)
 
 
 def _same_file(target: Path, source: str) -> bool:
@@ -121,7 +123,7 @@ def write_bytes_atomic(
 ) -> None:
     """Write to a temporary file beside `path`, then put it in place only once complete: renamed over the
     target with `force`, else linked to a name that must not exist yet (one of two racing writers wins)."""
-    target = check_output_path(path, force=force, inputs=inputs)
+    target = check_output_path(path, force=force, inputs=inputs, probe=False)  # the write itself tells
     _remove_stale_temporaries(target)
     try:
         temporary, handle = _create_temporary(target)

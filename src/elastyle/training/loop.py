@@ -264,8 +264,8 @@ def train(
     log.info("wrote %s after %d steps (%.1f min), %s", output, step, elapsed / 60, measured)
     if "reconstruction_warn_cm" not in metadata:
         log.warning(
-            "note: %s: with no clip held out, its out-of-depth warning uses the default %.1f cm; measure it on "
-            "clips it was not trained on with 'elastyle calibrate %s CLIPS --all -o MODEL.npz'",
+            "note: %s: with no held-out clip to measure it on, its out-of-depth warning uses the default %.1f "
+            "cm; measure it on clips it was not trained on with 'elastyle calibrate %s CLIPS --all -o MODEL.npz'",
             output, DEFAULT_WARN_CM, output,
         )  # fmt: skip
     if step == resumed_at:
