@@ -85,8 +85,8 @@ def test_batch_reports_a_bad_clip_and_finishes_the_others(
     assert [line for line in result.stderr.splitlines() if "error" in line] == [
         f"elastyle: error: {bad}: skeleton differs from the model (only in the model: joint_Root, Hips, Spine, Chest, "
         "Neck, Head, Shoulder_L, UpperArm_L ...; only in this clip: pelvis, spine, LeftLeg, LeftFoot, RightLeg, RightFoot); "
-        "for this skeleton, train a model on its clips with 'elastyle train CLIPS -o model.npz --minutes 30' and pass it with "
-        "--model model.npz"
+        "for this skeleton, train a model on its clips with 'elastyle train CLIPS -o model.npz --recipe shipped "
+        "--minutes 30' and pass it with --model model.npz"
     ]
     assert sorted(p.name for p in out.iterdir()) == [
         "dataset-2_walk_normal_005.bvh",
@@ -226,3 +226,28 @@ def test_a_repeated_keep_part_adds_its_parts() -> None:
     assert kept("--keep-part", "legs") == "legs"
     assert kept("--keep-part", "legs", "--keep-part", "arms") == "legs,arms"
     assert kept("--keep-part", "legs,spine", "--keep-part", "left-arm") == "legs,spine,left-arm"
+
+
+def test_train_recipes_set_what_no_flag_gives() -> None:
+    from dataclasses import asdict
+
+    from elastyle.cli import build_parser
+    from elastyle.cli.train import train_config
+    from elastyle.model.file import load_model
+    from elastyle.training.config import TrainConfig
+
+    def config(*flags: str) -> TrainConfig:
+        return train_config(
+            build_parser().parse_args(["train", "clips/", "-o", "m.npz", "--steps", "9", *flags])
+        )
+
+    assert config() == TrainConfig(steps=9)  # the report's recipe: TrainConfig's own defaults
+    shipped = asdict(config("--recipe", "shipped"))
+    recorded = load_model().metadata["train_config"]  # what the shipped model was trained with
+    for name in ("model", "batch_size", "learning_rate", "lr_schedule", "window_s", "reverse_augment",
+                 "speed_augment", "perturb_augment", "perturb_scale", "position_loss"):  # fmt: skip
+        assert shipped[name] == recorded[name], name
+    overridden = config("--recipe", "shipped", "--latent", "48", "--lr", "5e-4")
+    assert overridden.model.latent_channels == 48 and overridden.learning_rate == 5e-4
+    assert not overridden.model.tied and overridden.batch_size == 32  # the rest stays the recipe's
+    assert config("--untied").model.tied is False and config().model.tied is True

@@ -31,42 +31,49 @@ def add_train_commands(commands: Any) -> None:
         help="checkpoint to continue from (MODEL.npz.ckpt is written as training goes; with --force once the "
         "model file exists)",
     )
-    trainer.add_argument("--batch-size", type=int, default=16, help="windows per step (default 16)")
     trainer.add_argument(
-        "--lr", type=float, default=1e-4, help="Adam learning rate (default 1e-4, the report's)"
+        "--recipe", choices=("report", "shipped"), default="report",
+        help="the flags below as the report sets them, or as the shipped model was trained (MODEL_CARD.md: "
+        "latent 64, untied, and the augmentations); flags given override it (default report)",
+    )  # fmt: skip
+    trainer.add_argument("--batch-size", type=int, help="windows per step (default 16; shipped: 32)")
+    trainer.add_argument(
+        "--lr", type=float, help="Adam learning rate (default 1e-4, the report's; shipped: 1e-3)"
     )
     trainer.add_argument(
-        "--lr-schedule", choices=("constant", "cosine"), default="constant",
-        help="constant, or cosine decay over the budget (default constant)",
+        "--lr-schedule", choices=("constant", "cosine"),
+        help="constant, or cosine decay over the budget (default constant; shipped: cosine)",
     )  # fmt: skip
     trainer.add_argument(
-        "--window-s", type=float, default=4.0, help="training window length, seconds (default 4)"
+        "--window-s", type=float, help="training window length, seconds (default 4; shipped: 2)"
     )
-    trainer.add_argument("--hidden", type=int, default=256, help="hidden channels (default 256)")
+    trainer.add_argument("--hidden", type=int, help="hidden channels (default 256)")
     trainer.add_argument(
-        "--latent", type=int, default=32,
-        help="latent channels, the search's width (default 32, the report's; the shipped model has 64)",
+        "--latent", type=int, help="latent channels, the search's width (default 32, the report's; shipped: 64)",
     )  # fmt: skip
-    trainer.add_argument("--kernel", type=int, default=15, help="convolution width, frames (default 15)")
-    trainer.add_argument("--untied", action="store_true", help="decoder with weights of its own")
+    trainer.add_argument("--kernel", type=int, help="convolution width, frames (default 15)")
+    trainer.add_argument(
+        "--untied", action="store_const", const=True,
+        help="decoder with weights of its own (default: tied, the report's; shipped: untied)",
+    )  # fmt: skip
     trainer.add_argument("--no-mirror", action="store_true", help="no mirrored clips as augmentation")
     trainer.add_argument(
         "--reverse-augment",
         type=float,
-        default=0.0,
-        help="share of training windows played backwards (default 0)",
+        help="share of training windows played backwards (default 0; shipped: 0.3)",
     )
     trainer.add_argument(
-        "--speed-augment", type=float, default=0.0,
-        help="share of batches played at a speed drawn from 0.5x to 2x (default 0)",
+        "--speed-augment", type=float,
+        help="share of batches played at a speed drawn from 0.5x to 2x (default 0; shipped: 0.5)",
     )  # fmt: skip
     trainer.add_argument(
-        "--perturb-augment", type=float, default=0.0,
-        help="share of training windows whose joints get random offsets within their recorded ranges (default 0)",
+        "--perturb-augment", type=float,
+        help="share of training windows whose joints get random offsets within their recorded ranges "
+        "(default 0; shipped: 1)",
     )  # fmt: skip
     trainer.add_argument(
-        "--perturb-scale", type=float, default=0.5,
-        help="size of those offsets, in standard deviations of each channel (default 0.5)",
+        "--perturb-scale", type=float,
+        help="size of those offsets, in standard deviations of each channel (default 0.5; shipped: 1)",
     )  # fmt: skip
     trainer.add_argument(
         "--exclude", action="append", help="leave out clips whose name matches this glob (repeatable)"
@@ -75,8 +82,8 @@ def add_train_commands(commands: Any) -> None:
     trainer.add_argument(
         "--position-loss",
         type=float,
-        default=0.0,
-        help="weight of a forward-kinematics joint position and velocity loss (default 0, the report's)",
+        help="weight of a forward-kinematics joint position and velocity loss (default 0, the report's; "
+        "shipped: 1)",
     )
     trainer.add_argument("--threads", type=int, help="torch CPU threads")
     trainer.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -110,16 +117,16 @@ def _check_train_args(args: argparse.Namespace) -> None:
     for name, count in counts.items():
         if count is not None and count < 1:
             raise UsageError(f"--{name.replace('_', '-')} must be at least 1, got {count}")
-    if args.kernel % 2 == 0:
+    if args.kernel is not None and args.kernel % 2 == 0:
         raise UsageError(
             f"--kernel must be odd (the convolution is centred on each frame), got {args.kernel}"
         )
     for flag in ("reverse_augment", "speed_augment", "perturb_augment"):
-        if not 0 <= getattr(args, flag) <= 1:
+        if getattr(args, flag) is not None and not 0 <= getattr(args, flag) <= 1:
             raise UsageError(f"--{flag.replace('_', '-')} is a share of windows, from 0 to 1")
-    if not 0 <= args.perturb_scale <= 10:
+    if args.perturb_scale is not None and not 0 <= args.perturb_scale <= 10:
         raise UsageError("--perturb-scale is in standard deviations, from 0 to 10")
-    if not (math.isfinite(args.position_loss) and args.position_loss >= 0):
+    if args.position_loss is not None and not (math.isfinite(args.position_loss) and args.position_loss >= 0):
         raise UsageError(f"--position-loss must be 0 or more, got {args.position_loss:g}")
 
 
@@ -147,47 +154,57 @@ def _check_train_outputs(args: argparse.Namespace) -> None:
 
 
 def _command_train(args: argparse.Namespace) -> int:
-    from elastyle.model.config import ModelConfig
-
     _check_train_args(args)
     _check_train_outputs(args)
     try:
         import torch
     except ImportError:
         raise ElastyleError("training needs torch: pip install 'elastyle[train]'") from None
-    from elastyle.training.config import TrainConfig
     from elastyle.training.loop import train
 
     if args.threads:
         torch.set_num_threads(args.threads)
-    model_config = ModelConfig(
-        hidden_channels=args.hidden,
-        latent_channels=args.latent,
-        kernel_frames=args.kernel,
-        tied=not args.untied,
-    )
-    config = TrainConfig(
-        model=model_config,
-        batch_size=args.batch_size,
-        learning_rate=args.lr,
-        lr_schedule=args.lr_schedule,
-        window_s=args.window_s,
-        minutes=args.minutes,
-        steps=args.steps,
-        seed=args.seed,
-        mirror_augment=not args.no_mirror,
-        reverse_augment=args.reverse_augment,
-        speed_augment=args.speed_augment,
-        perturb_augment=args.perturb_augment,
-        perturb_scale=args.perturb_scale,
-        fps=args.fps,
-        position_loss=args.position_loss,
-    )
+    config = train_config(args)
     train(
         args.data, args.output, config, resume=args.resume, force=args.force, progress=not args.no_progress,
         exclude=args.exclude or (),
     )  # fmt: skip
     return 0
+
+
+def train_config(args: argparse.Namespace) -> Any:
+    """The `TrainConfig` of the parsed flags: the `--recipe`'s values where a flag is not given."""
+    from elastyle.model.config import ModelConfig
+    from elastyle.training.config import RECIPES, TrainConfig
+
+    recipe = TrainConfig(**RECIPES[args.recipe])  # type: ignore[arg-type]
+    model = recipe.model
+
+    def given(value: Any, default: Any) -> Any:
+        return default if value is None else value
+
+    return TrainConfig(
+        model=ModelConfig(
+            hidden_channels=given(args.hidden, model.hidden_channels),
+            latent_channels=given(args.latent, model.latent_channels),
+            kernel_frames=given(args.kernel, model.kernel_frames),
+            tied=not given(args.untied, not model.tied),
+        ),
+        batch_size=given(args.batch_size, recipe.batch_size),
+        learning_rate=given(args.lr, recipe.learning_rate),
+        lr_schedule=given(args.lr_schedule, recipe.lr_schedule),
+        window_s=given(args.window_s, recipe.window_s),
+        minutes=args.minutes,
+        steps=args.steps,
+        seed=args.seed,
+        mirror_augment=not args.no_mirror,
+        reverse_augment=given(args.reverse_augment, recipe.reverse_augment),
+        speed_augment=given(args.speed_augment, recipe.speed_augment),
+        perturb_augment=given(args.perturb_augment, recipe.perturb_augment),
+        perturb_scale=given(args.perturb_scale, recipe.perturb_scale),
+        fps=args.fps,
+        position_loss=given(args.position_loss, recipe.position_loss),
+    )
 
 
 def _command_calibrate(args: argparse.Namespace) -> int:
