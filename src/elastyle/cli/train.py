@@ -174,37 +174,27 @@ def _command_train(args: argparse.Namespace) -> int:
 
 def train_config(args: argparse.Namespace) -> Any:
     """The `TrainConfig` of the parsed flags: the `--recipe`'s values where a flag is not given."""
-    from elastyle.model.config import ModelConfig
-    from elastyle.training.config import RECIPES, TrainConfig
+    from dataclasses import replace
 
-    recipe = TrainConfig(**RECIPES[args.recipe])  # type: ignore[arg-type]
-    model = recipe.model
+    from elastyle.training.config import RECIPES
 
-    def given(value: Any, default: Any) -> Any:
-        return default if value is None else value
+    def given(**values: Any) -> dict[str, Any]:
+        return {name: value for name, value in values.items() if value is not None}
 
-    return TrainConfig(
-        model=ModelConfig(
-            hidden_channels=given(args.hidden, model.hidden_channels),
-            latent_channels=given(args.latent, model.latent_channels),
-            kernel_frames=given(args.kernel, model.kernel_frames),
-            tied=not given(args.untied, not model.tied),
-        ),
-        batch_size=given(args.batch_size, recipe.batch_size),
-        learning_rate=given(args.lr, recipe.learning_rate),
-        lr_schedule=given(args.lr_schedule, recipe.lr_schedule),
-        window_s=given(args.window_s, recipe.window_s),
-        minutes=args.minutes,
-        steps=args.steps,
-        seed=args.seed,
-        mirror_augment=not args.no_mirror,
-        reverse_augment=given(args.reverse_augment, recipe.reverse_augment),
-        speed_augment=given(args.speed_augment, recipe.speed_augment),
-        perturb_augment=given(args.perturb_augment, recipe.perturb_augment),
-        perturb_scale=given(args.perturb_scale, recipe.perturb_scale),
-        fps=args.fps,
-        position_loss=given(args.position_loss, recipe.position_loss),
-    )
+    recipe = RECIPES[args.recipe]
+    model = replace(
+        recipe.model,
+        **given(hidden_channels=args.hidden, latent_channels=args.latent, kernel_frames=args.kernel,
+                tied=None if args.untied is None else False),
+    )  # fmt: skip
+    return replace(
+        recipe, model=model, minutes=args.minutes, steps=args.steps, seed=args.seed,
+        mirror_augment=not args.no_mirror, fps=args.fps,
+        **given(batch_size=args.batch_size, learning_rate=args.lr, lr_schedule=args.lr_schedule,
+                window_s=args.window_s, reverse_augment=args.reverse_augment, speed_augment=args.speed_augment,
+                perturb_augment=args.perturb_augment, perturb_scale=args.perturb_scale,
+                position_loss=args.position_loss),
+    )  # fmt: skip
 
 
 def _command_calibrate(args: argparse.Namespace) -> int:
