@@ -33,7 +33,7 @@ import numpy as np
 
 from elastyle.core.body import no_legs_note
 from elastyle.core.motion import Motion
-from elastyle.core.parts import body_parts, parse_parts, part_joints
+from elastyle.core.parts import body_parts, joint_set, parse_parts, part_joints
 from elastyle.core.resample import interpolate_rows
 from elastyle.core.threads import one_blas_thread
 from elastyle.errors import ClipTooShortError, ConfigError, ResultError
@@ -123,7 +123,7 @@ def transfer(
         for names, part_style in (part_styles or {}).items()
     ]  # fmt: skip
     styled_joints = np.concatenate([joints for joints, _ in by_part]) if by_part else np.zeros(0, np.int64)
-    if len(np.unique(styled_joints)) < len(styled_joints):
+    if len(joint_set(styled_joints)) < len(styled_joints):
         raise ConfigError(
             f"{content_name}: a body part is given two styles (--style-part); give each part one"
         )
@@ -191,12 +191,13 @@ def transfer(
     # body parts that keep the content's action: kept ones throughout, the others where the style does
     # another, as far as the strength goes (plain decoding at strength 0 stays the model's reading)
     keep = keep_weights(tracks, shares, part_tracks, content.skeleton, grid, content_time, positions, kept)
-    automatic = np.setdiff1d(np.arange(content.skeleton.num_joints), kept)
+    automatic = joint_set(set(range(content.skeleton.num_joints)) - set(kept.tolist()))
     keep[:, automatic] *= np.clip(strength_out, 0.0, 1.0)[:, None]  # kept as far as the style acts
     if np.any(keep > 0):
         reference = content_at if base_at is None else base_at
+        unstyled = joint_set([*kept, *styled_joints])  # kept, or styled by another library
         colour = config.kept_statistics * statistics_weights(
-            tracks, shares, content.skeleton, grid, content_time, positions, np.union1d(kept, styled_joints)
+            tracks, shares, content.skeleton, grid, content_time, positions, unstyled
         )  # (N, J) the style's statistics on legs that keep the content's action where the style does another
         coloured_at = None
         if np.any(colour > 0):
@@ -221,7 +222,7 @@ def transfer(
             also = detect_contacts(content_at) & kept_legs[:, None]  # (N, F)
             motion = blend_by_strength(motion, _clean_up(motion, config, also), clean_share)
             motion = motion.with_joints(content_at, kept, translations=True)  # kept parts stay the content's
-        elif config.cleanup and np.any(keep[:, np.intersect1d(legs, automatic)] > 0):
+        elif config.cleanup and np.any(keep[:, joint_set(set(legs.tolist()) & set(automatic.tolist()))] > 0):
             # legs keeping the content's action stay above the output's ground
             motion = blend_by_strength(motion, lift_to_ground(motion), (keep > 0) * clean_share[:, None])
             motion = motion.with_joints(content_at, kept, translations=True)

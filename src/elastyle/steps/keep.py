@@ -21,7 +21,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from elastyle.core.motion import Motion
-from elastyle.core.parts import body_parts
+from elastyle.core.parts import body_parts, joint_set
 from elastyle.core.rotations import canonical_log, multiply, quat_multiply, to_quat
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import smooth
@@ -93,7 +93,7 @@ def _per_joint(
                 if name in values:
                     on_grid += share * values[name]
             model_rate = on_output_frames(on_grid, grid, content_time)  # (T_out,)
-            joints = np.intersect1d(joints, styled_joints)
+            joints = joint_set(set(joints.tolist()) & set(styled_joints.tolist()))
             weights[:, joints] = np.interp(positions, np.arange(len(model_rate)), model_rate)[:, None]
     return weights
 
@@ -128,7 +128,7 @@ def keep_target(
         rotations[np.ix_(acting, joints)] = multiply(rotations[np.ix_(acting, joints)], weighted)
     parts = body_parts(content.skeleton)
     named = [int(j) for name in POSTURE_PARTS for j in parts.get(name, [])]
-    posture = np.setdiff1d(np.array(named, dtype=np.int64), kept)
+    posture = joint_set(set(named) - set(kept.tolist()))
     if len(posture):
         weight = keep[:, posture, None]  # (N, P, 1)
         change = _change(reference, styled, posture)  # (N, P, 3) the style's change to each posture joint

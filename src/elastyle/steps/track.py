@@ -268,7 +268,10 @@ def stepping_tempo(
     ]
     if len(stretches) < MIN_TEMPO_PATCHES:
         return None
-    return float(np.exp(np.median(np.log(stretches))))
+    # the median of a few values, by hand: numpy's imports numpy.ma on its first call (see `joint_set`)
+    logs, middle = sorted(np.log(stretches).tolist()), len(stretches) // 2
+    median = logs[middle] if len(logs) % 2 else (logs[middle - 1] + logs[middle]) / 2
+    return float(np.exp(median))
 
 
 def part_mismatch(
