@@ -41,9 +41,8 @@ from elastyle.model.depth import depth_warning, reconstruction_error_cm
 from elastyle.model.features import RootPath
 from elastyle.model.file import StyleModel, load_model
 from elastyle.steps.action import action_channels, part_channels, walks_backwards
-from elastyle.steps.cleanup import lift_to_ground, plant_feet
+from elastyle.steps.cleanup import held_footing, lift_to_ground, plant_feet
 from elastyle.steps.config import TransferConfig
-from elastyle.steps.contacts import detect_contacts
 from elastyle.steps.decode import (
     blend_by_strength,
     compose_residual,
@@ -216,11 +215,12 @@ def transfer(
         motion = blend_by_strength(motion, target, keep)
         legs = body_parts(content.skeleton).get("legs", np.zeros(0, dtype=np.int64))
         if coloured_at is not None and config.cleanup:  # the coloured legs' feet planted too
-            # where the legs keep the content's stepping, the content's own contacts hold as well: the
-            # statistics change how the legs move, not when the feet land
+            # where the legs keep the content's stepping, the content's own contacts hold as well, and its
+            # feet's clearance of the ground: the statistics change how the legs move, not when the feet
+            # land nor whether a swinging foot skims the floor
             kept_legs = np.max(keep[:, legs], axis=1) > 0.5  # (N,)
-            also = detect_contacts(content_at) & kept_legs[:, None]  # (N, F)
-            motion = blend_by_strength(motion, _clean_up(motion, config, also), clean_share)
+            also, toe_floor = held_footing(content_at, kept_legs)  # (N, F) each
+            motion = blend_by_strength(motion, _clean_up(motion, config, also, toe_floor), clean_share)
             motion = motion.with_joints(content_at, kept, translations=True)  # kept parts stay the content's
         elif config.cleanup and np.any(keep[:, joint_set(set(legs.tolist()) & set(automatic.tolist()))] > 0):
             # legs keeping the content's action stay above the output's ground
@@ -262,10 +262,12 @@ def _decoded(
     return decode_plain(model, on_output_frames(latents, grid, content_time), root, config.smooth_s)
 
 
-def _clean_up(motion: Motion, config: TransferConfig, also: BoolArray | None = None) -> Motion:
-    """Feet planted, after the root has taken its share of the stance feet's drift; also: (N, F) contacts
-    known from elsewhere, held besides those found."""
-    return plant_feet(motion, config.root_follows_legs, also)
+def _clean_up(
+    motion: Motion, config: TransferConfig, also: BoolArray | None = None, toe_floor: FloatArray | None = None
+) -> Motion:
+    """Feet planted, after the root has taken its share of the stance feet's drift; also, toe_floor: (N, F)
+    contacts known from elsewhere, held besides those found, and the lowest height of each toe."""
+    return plant_feet(motion, config.root_follows_legs, also, toe_floor)
 
 
 def _check_finite(motion: Motion, step: str, content_name: str) -> None:

@@ -12,21 +12,26 @@ from elastyle.core.motion import Motion
 from elastyle.core.rotations import lengths
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import pad_edges, smooth
-from elastyle.steps.contacts import detect_contacts, ground_level, mask_runs, pivots
+from elastyle.steps.contacts import EXIT_HEIGHT_OF_LEG, detect_contacts, ground_level, mask_runs, pivots
 from elastyle.steps.leg_ik import is_below, leg_ik
 from elastyle.types import BoolArray, FloatArray, IntArray
 
 BRIDGE_GAP_S = 0.6  # a foot's gaps between contacts up to this long (a step's swing) are bridged directly
 SMOOTH_SIGMA_OF_WIDTH = 0.4  # a window's half-width w is smoothed by a Gaussian of sigma 0.4 w
 ROOT_TOLERANCE_OF_PATH = 0.1  # the adjusted root strays at most this fraction of the path's length from it
+# a lift up to a toe floor (`clean_feet`) eases in and out over this long (seconds), a swing's few frames
+FLOOR_EASE_S = 0.1
 SOFT_REACH = 0.995  # IK straightens a knee up to this fraction of the leg's reach before lowering the pelvis
 
 
-def plant_feet(motion: Motion, root_share: float, also: BoolArray | None = None) -> Motion:
+def plant_feet(
+    motion: Motion, root_share: float, also: BoolArray | None = None, toe_floor: FloatArray | None = None
+) -> Motion:
     """The whole clean-up: contacts found, the root moved by `root_share` of the stance feet's drift
     (`adjust_root_speed`, skipped at 0), then the feet pinned (`clean_feet`). One forward kinematics pass
-    serves all three: moving the root moves the legs with it and turns nothing. also: (T, F) contacts known
-    from elsewhere, added to those found (legs that step as another clip does take its contacts)."""
+    serves all three: moving the root moves the legs with it and turns nothing. also, toe_floor: (T, F)
+    contacts known from elsewhere, added to those found, and the lowest height of each toe (`clean_feet`):
+    legs that step as another clip does take its contacts and its feet's clearance (`held_footing`)."""
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
         return clean_feet(motion)
@@ -35,14 +40,14 @@ def plant_feet(motion: Motion, root_share: float, also: BoolArray | None = None)
     if also is not None:
         contacts = contacts | _checked(also, motion, limbs)
     if root_share <= 0:
-        return clean_feet(motion, contacts, world=(world_rotations, positions))
+        return clean_feet(motion, contacts, world=(world_rotations, positions), toe_floor=toe_floor)
     shift = _root_shift(motion, contacts, (world_rotations, positions), root_share)  # (T, 3) world
     moved = Motion(
         skeleton, motion.rotations.copy(), _shift_pelvis(motion, world_rotations, shift), motion.fps
     )
     positions = positions.copy()
     positions[:, _carried_by_pelvis(skeleton, limbs)] += shift[:, None]
-    return clean_feet(moved, contacts, world=(world_rotations, positions))
+    return clean_feet(moved, contacts, world=(world_rotations, positions), toe_floor=toe_floor)
 
 
 def clean_feet(
@@ -50,6 +55,7 @@ def clean_feet(
     contacts: BoolArray | None = None,
     blend_s: float = 0.15,
     world: tuple[FloatArray, FloatArray] | None = None,
+    toe_floor: FloatArray | None = None,
 ) -> Motion:
     """Pin each planted foot in place with two-joint IK; a new Motion (same skeleton, fps and frames).
 
@@ -61,7 +67,10 @@ def clean_feet(
     orientation; hip and knee turn in the original knee plane; the pelvis is lowered (smoothly) only
     where a leg cannot reach. Only leg rotations and the pelvis height change: bone lengths stay exact.
     world: the clip's world rotations and positions (`Motion.world`) of the feet and their ancestors, when
-    already known.
+    already known. toe_floor: (T, F) the lowest height (file units) each toe may take, -inf where it is free;
+    off contact, the lift up to it eases in and out over `FLOOR_EASE_S` (never below what it needs), so a
+    swinging foot clears that floor instead of skimming along it; a planted foot is lifted only as far as
+    its own frame needs, so no easing raises a foot that stands.
     """
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
@@ -80,7 +89,11 @@ def clean_feet(
             points[:, foot], weights[:, foot], contacts[:, foot], ramp_frames, bridge_frames
         )
     toe_heights = positions[:, limbs.toes, 1] + targets[..., 1] - positions[:, limbs.ankles, 1]  # (T, F)
-    targets[..., 1] += np.maximum(0.0, ground - np.minimum(toe_heights, targets[..., 1]))
+    lift = np.maximum(0.0, ground - np.minimum(toe_heights, targets[..., 1]))  # (T, F)
+    if toe_floor is not None:  # eased over the swing, but never lifting a planted foot beyond its own need
+        need = np.maximum(0.0, toe_floor - toe_heights)
+        lift = np.maximum(lift, np.where(contacts, need, _eased_need(need, FLOOR_EASE_S * motion.fps)))
+    targets[..., 1] += lift
     # 2. lower the pelvis where a target is out of reach: the pelvis and every joint below it move with it
     knees = skeleton.parents[limbs.ankles]
     chains = np.stack([skeleton.parents[knees], knees, limbs.ankles], axis=1)  # (F, 3) upper leg, knee, ankle
@@ -103,6 +116,24 @@ def clean_feet(
         frames, feet = np.nonzero(moved)
         rotations[frames[:, None], chains[feet]] = local[frames, feet]
     return Motion(skeleton, rotations, translations, motion.fps)
+
+
+def held_footing(reference: Motion, where: BoolArray) -> tuple[BoolArray, FloatArray]:
+    """What legs that keep another clip's stepping hold from it, at its frames `where` (T,): its contacts
+    (T, F), and a floor under each toe (T, F) for `clean_feet`: the reference toe's own height, capped at
+    `EXIT_HEIGHT_OF_LEG` above its ground level (where a foot leaves contact), -inf outside `where`.
+
+    A change laid on such legs (the style's statistics) may lower a swinging foot until it skims the floor
+    where the reference's foot clears it; the floor keeps the reference's clearance near the ground and
+    leaves every higher part of the swing to the change."""
+    limbs = find_limbs(reference.skeleton)
+    if len(limbs.toes) == 0:  # no feet to hold
+        return np.zeros((reference.num_frames, 0), dtype=bool), np.zeros((reference.num_frames, 0))
+    positions = reference.positions(limbs.feet)
+    contacts = detect_contacts(reference, positions) & where[:, None]
+    near = ground_level(reference, positions) + EXIT_HEIGHT_OF_LEG * leg_length(reference.skeleton, limbs)
+    floor = np.minimum(positions[:, limbs.toes, 1], near)  # (T, F)
+    return contacts, np.where(where[:, None], floor, -np.inf)
 
 
 def lift_to_ground(motion: Motion) -> Motion:
@@ -275,10 +306,15 @@ def _pelvis_lowering(
     offset = targets - hips  # (T, F, 3)
     horizontal_sq = offset[..., 0] ** 2 + offset[..., 2] ** 2
     need = -offset[..., 1] - np.sqrt(np.maximum(reach**2 - horizontal_sq, 0.0))  # (T, F)
-    need = np.max(need, axis=1, initial=0.0)  # (T,)
+    return _eased_need(np.max(need, axis=1, initial=0.0), ramp_frames)  # (T,)
+
+
+def _eased_need(need: FloatArray, ramp_frames: float) -> FloatArray:
+    """A correction needed per frame (T, ...), >= 0, made smooth in time and never below the need: dilated
+    over `ramp_frames` either side, then averaged over a Gaussian of `SMOOTH_SIGMA_OF_WIDTH` of that."""
     if not np.any(need > 0):
         return need
     radius = max(1, int(np.ceil(ramp_frames)))
     padded = pad_edges(need, radius, radius)
-    dilated = np.lib.stride_tricks.sliding_window_view(padded, 2 * radius + 1).max(axis=1)
+    dilated = np.lib.stride_tricks.sliding_window_view(padded, 2 * radius + 1, axis=0).max(axis=-1)
     return np.maximum(smooth(dilated, SMOOTH_SIGMA_OF_WIDTH * radius), need)
