@@ -11,7 +11,7 @@ from elastyle.core.skeleton import Skeleton
 from elastyle.eval.metrics import foot_skating_cm_s, jerk
 from elastyle.io.bvh_read import parse_bvh
 from elastyle.io.dataset import ClipRef
-from elastyle.steps.cleanup import adjust_root_speed, clean_feet, lift_to_ground, plant_feet
+from elastyle.steps.cleanup import adjust_root_speed, clean_feet, held_footing, lift_to_ground, plant_feet
 from elastyle.steps.contacts import HEEL, TOE, detect_contacts, detect_point_contacts, ground_level, mask_runs
 from elastyle.types import BoolArray, FloatArray
 from tests.conftest import THREE_CHANNEL_BVH, clip_named
@@ -252,6 +252,38 @@ def test_plant_feet_holds_contacts_given_from_elsewhere(
         plant_feet(motion, 0.5, found[:1])
 
 
+def test_a_clip_meets_its_own_footing_and_a_higher_floor_lifts_its_feet(walk_clip: ClipRef) -> None:
+    """`held_footing`'s floor lies under the clip's own feet, so holding a clip to its own footing changes
+    nothing; raised by up to 2 cm over one swing it lifts that foot's lower point there (the toe's or the
+    ankle's, whichever is nearer the ground) onto it, eases in and out, and leaves the planted frames alone."""
+    motion = walk_clip.read()[0]
+    limbs = find_limbs(motion.skeleton)
+    contacts, floor = held_footing(motion, np.ones(motion.num_frames, dtype=bool))
+    assert contacts.shape == (motion.num_frames, 2) and floor.shape == (motion.num_frames, 2, 2)
+    plain = clean_feet(motion, contacts)
+    own = clean_feet(motion, contacts, foot_floor=floor)
+    np.testing.assert_allclose(own.rotations, plain.rotations, atol=1e-9)  # to rounding
+    # the longest swing of the first foot, raised by up to 2 cm (a smooth bump, 0 at its ends)
+    start, stop = max(mask_runs(~contacts[:, 0]), key=lambda run: run[1] - run[0])
+    raised = floor.copy()
+    bump = np.sin(np.linspace(0.0, np.pi, stop - start)) ** 2
+    raised[start:stop, 0] += (2.0 / centimetres_per_unit(motion.skeleton)) * bump[:, None]
+    lifted = clean_feet(motion, contacts, foot_floor=raised)
+    points = np.stack([limbs.toes, limbs.ankles], axis=1)  # (F, 2) as held_footing orders them
+    heights = lifted.positions()[:, points, 1]  # (T, F, 2)
+    assert np.all(np.max(raised[start:stop, 0] - heights[start:stop, 0], axis=-1) < 1e-6)
+    np.testing.assert_allclose(lifted.positions()[contacts[:, 0], limbs.toes[0]],
+                               plain.positions()[contacts[:, 0], limbs.toes[0]], atol=1e-6)  # fmt: skip
+    step = np.abs(np.diff(heights[:, 0, 0])) * centimetres_per_unit(motion.skeleton)  # toe, cm per frame
+    before = np.abs(np.diff(plain.positions()[:, limbs.toes[0], 1])) * centimetres_per_unit(motion.skeleton)
+    assert step.max() < before.max() + 1.0  # eased: no jump of the lift's size
+    # nowhere held, or no feet: nothing to hold
+    _, free = held_footing(motion, np.zeros(motion.num_frames, dtype=bool))
+    assert np.all(np.isneginf(free))
+    with pytest.raises(ValueError, match="foot_floor must be"):
+        clean_feet(motion, contacts, foot_floor=floor[:, :, 0])
+
+
 def test_single_frame_and_bad_contacts(walk_clip: ClipRef) -> None:
     motion = walk_clip.read()[0].slice(0, 1)
     contacts = detect_contacts(motion)
@@ -437,3 +469,5 @@ def test_a_skeleton_without_toes_is_left_as_it_is() -> None:
     ):
         np.testing.assert_array_equal(cleaned.translations, motion.translations)
         np.testing.assert_array_equal(cleaned.rotations, motion.rotations)
+    contacts, floor = held_footing(motion, np.ones(4, dtype=bool))
+    assert contacts.shape == (4, 0) and floor.shape == (4, 0, 2)

@@ -108,17 +108,21 @@ def test_legs_that_keep_the_walk_take_the_runs_statistics(model, clips: dict[str
 
 
 def test_legs_that_keep_the_walk_clear_the_floor_as_the_walk_does(model, clips: dict[str, Motion]) -> None:  # type: ignore[no-untyped-def]
-    """The run's statistics on legs that keep the walk bend them otherwise, but near the ground no toe goes
-    lower than the walk's own at the same moment: it neither skims nor sinks through the floor the walk's
-    feet clear (without that floor, toes went up to 4.8 cm lower on 57 frames of this pair)."""
+    """The run's statistics on legs that keep the walk bend them otherwise, but no foot comes nearer the
+    ground than the walk's own at the same moment (up to where a foot leaves contact): it neither skims nor
+    sinks through the floor the walk's feet clear (without that floor, the feet came up to 3.0 cm nearer the
+    ground than the walk's, on 65 foot-frames by more than 0.5 cm)."""
     walk, run = clips["walk_normal_005"], clips["run_feminine_015"]
     out = transfer(walk, run, model=model, kept_statistics=0.6).motion
     assert out.num_frames == walk.num_frames  # the legs keep the walk's pace: frame for frame
     limbs = find_limbs(walk.skeleton)
-    ours, theirs = (m.positions()[:, limbs.toes, 1] for m in (out, walk))  # (T, 2) heights, cm
-    near = theirs < np.percentile(theirs, 5) + EXIT_HEIGHT_OF_LEG * leg_length(walk.skeleton, limbs)
-    assert np.sum(near) > walk.num_frames // 2  # the walk's feet are mostly near the ground
-    assert np.min(ours[near] - theirs[near]) > -0.1
+    points = np.stack([limbs.toes, limbs.ankles], axis=1)  # (2, 2) each foot's toe and ankle
+    ours, theirs = (m.positions()[:, points, 1] for m in (out, walk))  # (T, 2, 2) heights, cm
+    ground = np.percentile(theirs, 5, axis=(0, 1), method="nearest")  # (2,) the toes', the ankles'
+    band = EXIT_HEIGHT_OF_LEG * leg_length(walk.skeleton, limbs)
+    clearance = np.minimum(np.min(theirs - ground, axis=-1), band)  # (T, 2) the walk's, capped
+    assert np.mean(clearance < band) > 0.5  # the walk's feet are near the ground most of the time
+    assert np.min(np.min(ours - ground, axis=-1) - clearance) > -0.1
     legs = body_parts(walk.skeleton)["legs"]
     assert np.abs(out.rotations[:, legs] - walk.rotations[:, legs]).max() > 0.05  # still coloured
 

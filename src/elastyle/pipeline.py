@@ -219,8 +219,8 @@ def transfer(
             # feet's clearance of the ground: the statistics change how the legs move, not when the feet
             # land nor whether a swinging foot skims the floor
             kept_legs = np.max(keep[:, legs], axis=1) > 0.5  # (N,)
-            also, toe_floor = held_footing(content_at, kept_legs)  # (N, F) each
-            motion = blend_by_strength(motion, _clean_up(motion, config, also, toe_floor), clean_share)
+            also, foot_floor = held_footing(content_at, kept_legs)  # (N, F), (N, F, 2)
+            motion = blend_by_strength(motion, _clean_up(motion, config, also, foot_floor), clean_share)
             motion = motion.with_joints(content_at, kept, translations=True)  # kept parts stay the content's
         elif config.cleanup and np.any(keep[:, joint_set(set(legs.tolist()) & set(automatic.tolist()))] > 0):
             # legs keeping the content's action stay above the output's ground
@@ -263,11 +263,15 @@ def _decoded(
 
 
 def _clean_up(
-    motion: Motion, config: TransferConfig, also: BoolArray | None = None, toe_floor: FloatArray | None = None
+    motion: Motion,
+    config: TransferConfig,
+    also: BoolArray | None = None,
+    foot_floor: FloatArray | None = None,
 ) -> Motion:
-    """Feet planted, after the root has taken its share of the stance feet's drift; also, toe_floor: (N, F)
-    contacts known from elsewhere, held besides those found, and the lowest height of each toe."""
-    return plant_feet(motion, config.root_follows_legs, also, toe_floor)
+    """Feet planted, after the root has taken its share of the stance feet's drift; also: (N, F) contacts
+    known from elsewhere, held besides those found; foot_floor: (N, F, 2) the lowest height of each foot's
+    toe and ankle (`steps.cleanup.clean_feet`)."""
+    return plant_feet(motion, config.root_follows_legs, also, foot_floor)
 
 
 def _check_finite(motion: Motion, step: str, content_name: str) -> None:

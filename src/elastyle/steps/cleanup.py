@@ -12,26 +12,36 @@ from elastyle.core.motion import Motion
 from elastyle.core.rotations import lengths
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import pad_edges, smooth
-from elastyle.steps.contacts import EXIT_HEIGHT_OF_LEG, detect_contacts, ground_level, mask_runs, pivots
+from elastyle.steps.contacts import (
+    EXIT_HEIGHT_OF_LEG,
+    GROUND_PERCENTILE,
+    PERCENTILE_METHOD,
+    contact_points,
+    detect_contacts,
+    ground_level,
+    mask_runs,
+    pivots,
+)
 from elastyle.steps.leg_ik import is_below, leg_ik
 from elastyle.types import BoolArray, FloatArray, IntArray
 
 BRIDGE_GAP_S = 0.6  # a foot's gaps between contacts up to this long (a step's swing) are bridged directly
 SMOOTH_SIGMA_OF_WIDTH = 0.4  # a window's half-width w is smoothed by a Gaussian of sigma 0.4 w
 ROOT_TOLERANCE_OF_PATH = 0.1  # the adjusted root strays at most this fraction of the path's length from it
-# a lift up to a toe floor (`clean_feet`) eases in and out over this long (seconds), a swing's few frames
+# a lift up to a foot floor (`clean_feet`) eases in and out over this long (seconds), a swing's few frames
 FLOOR_EASE_S = 0.1
 SOFT_REACH = 0.995  # IK straightens a knee up to this fraction of the leg's reach before lowering the pelvis
 
 
 def plant_feet(
-    motion: Motion, root_share: float, also: BoolArray | None = None, toe_floor: FloatArray | None = None
+    motion: Motion, root_share: float, also: BoolArray | None = None, foot_floor: FloatArray | None = None
 ) -> Motion:
     """The whole clean-up: contacts found, the root moved by `root_share` of the stance feet's drift
     (`adjust_root_speed`, skipped at 0), then the feet pinned (`clean_feet`). One forward kinematics pass
-    serves all three: moving the root moves the legs with it and turns nothing. also, toe_floor: (T, F)
-    contacts known from elsewhere, added to those found, and the lowest height of each toe (`clean_feet`):
-    legs that step as another clip does take its contacts and its feet's clearance (`held_footing`)."""
+    serves all three: moving the root moves the legs with it and turns nothing. also: (T, F) contacts known
+    from elsewhere, added to those found; foot_floor: (T, F, 2) the lowest height of each foot's toe and
+    ankle (`clean_feet`): legs that step as another clip does take its contacts and its feet's clearance
+    of the ground (`held_footing`)."""
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
         return clean_feet(motion)
@@ -40,14 +50,14 @@ def plant_feet(
     if also is not None:
         contacts = contacts | _checked(also, motion, limbs)
     if root_share <= 0:
-        return clean_feet(motion, contacts, world=(world_rotations, positions), toe_floor=toe_floor)
+        return clean_feet(motion, contacts, world=(world_rotations, positions), foot_floor=foot_floor)
     shift = _root_shift(motion, contacts, (world_rotations, positions), root_share)  # (T, 3) world
     moved = Motion(
         skeleton, motion.rotations.copy(), _shift_pelvis(motion, world_rotations, shift), motion.fps
     )
     positions = positions.copy()
     positions[:, _carried_by_pelvis(skeleton, limbs)] += shift[:, None]
-    return clean_feet(moved, contacts, world=(world_rotations, positions), toe_floor=toe_floor)
+    return clean_feet(moved, contacts, world=(world_rotations, positions), foot_floor=foot_floor)
 
 
 def clean_feet(
@@ -55,7 +65,7 @@ def clean_feet(
     contacts: BoolArray | None = None,
     blend_s: float = 0.15,
     world: tuple[FloatArray, FloatArray] | None = None,
-    toe_floor: FloatArray | None = None,
+    foot_floor: FloatArray | None = None,
 ) -> Motion:
     """Pin each planted foot in place with two-joint IK; a new Motion (same skeleton, fps and frames).
 
@@ -67,10 +77,11 @@ def clean_feet(
     orientation; hip and knee turn in the original knee plane; the pelvis is lowered (smoothly) only
     where a leg cannot reach. Only leg rotations and the pelvis height change: bone lengths stay exact.
     world: the clip's world rotations and positions (`Motion.world`) of the feet and their ancestors, when
-    already known. toe_floor: (T, F) the lowest height (file units) each toe may take, -inf where it is free;
-    off contact, the lift up to it eases in and out over `FLOOR_EASE_S` (never below what it needs), so a
-    swinging foot clears that floor instead of skimming along it; a planted foot is lifted only as far as
-    its own frame needs, so no easing raises a foot that stands.
+    already known. foot_floor: (T, F, 2) the lowest height (file units) of each foot's toe and ankle
+    (`contact_points` order), -inf where free: the foot is lifted where either is below it, by the lift
+    eased over `FLOOR_EASE_S` (never below what it needs, so a swinging foot clears that floor instead of
+    skimming along it) and, nearer a contact of its own, by less of the easing, down to each planted
+    frame's own need (no easing raises a foot that stands).
     """
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
@@ -90,9 +101,10 @@ def clean_feet(
         )
     toe_heights = positions[:, limbs.toes, 1] + targets[..., 1] - positions[:, limbs.ankles, 1]  # (T, F)
     lift = np.maximum(0.0, ground - np.minimum(toe_heights, targets[..., 1]))  # (T, F)
-    if toe_floor is not None:  # eased over the swing, but never lifting a planted foot beyond its own need
-        need = np.maximum(0.0, toe_floor - toe_heights)
-        lift = np.maximum(lift, np.where(contacts, need, _eased_need(need, FLOOR_EASE_S * motion.fps)))
+    if foot_floor is not None:
+        heights = np.stack([toe_heights, targets[..., 1]], axis=-1)  # (T, F, 2) toe, ankle
+        need = np.maximum(0.0, np.max(_checked_floor(foot_floor, motion, limbs) - heights, axis=-1))
+        lift = np.maximum(lift, _eased_off_contact(need, contacts, FLOOR_EASE_S * motion.fps))
     targets[..., 1] += lift
     # 2. lower the pelvis where a target is out of reach: the pelvis and every joint below it move with it
     knees = skeleton.parents[limbs.ankles]
@@ -120,20 +132,27 @@ def clean_feet(
 
 def held_footing(reference: Motion, where: BoolArray) -> tuple[BoolArray, FloatArray]:
     """What legs that keep another clip's stepping hold from it, at its frames `where` (T,): its contacts
-    (T, F), and a floor under each toe (T, F) for `clean_feet`: the reference toe's own height, capped at
-    `EXIT_HEIGHT_OF_LEG` above its ground level (where a foot leaves contact), -inf outside `where`.
+    (T, F), and a floor under each foot (T, F, 2) for `clean_feet`, its toe's and ankle's lowest heights
+    (file units), -inf outside `where`.
 
-    A change laid on such legs (the style's statistics) may lower a swinging foot until it skims the floor
-    where the reference's foot clears it; the floor keeps the reference's clearance near the ground and
-    leaves every higher part of the swing to the change."""
+    A foot's clearance is the lower of its toe's and its ankle's heights above their ground levels (their
+    5th percentiles, as `pivots` reads them). The floor lets each foot come no closer to the ground than the
+    reference's does at the same moment, up to `EXIT_HEIGHT_OF_LEG` (where a foot leaves contact): each
+    point at its ground level plus that clearance. A change laid on such legs (the style's statistics) may
+    lower a swinging foot until it skims or sinks through the floor the reference's foot clears; the floor
+    keeps the reference's clearance near the ground, leaves every higher part of the swing to the change,
+    and does not lift a heel that strikes flatter than the reference's (its clearance is already the
+    heel's)."""
     limbs = find_limbs(reference.skeleton)
     if len(limbs.toes) == 0:  # no feet to hold
-        return np.zeros((reference.num_frames, 0), dtype=bool), np.zeros((reference.num_frames, 0))
+        return np.zeros((reference.num_frames, 0), dtype=bool), np.zeros((reference.num_frames, 0, 2))
     positions = reference.positions(limbs.feet)
     contacts = detect_contacts(reference, positions) & where[:, None]
-    near = ground_level(reference, positions) + EXIT_HEIGHT_OF_LEG * leg_length(reference.skeleton, limbs)
-    floor = np.minimum(positions[:, limbs.toes, 1], near)  # (T, F)
-    return contacts, np.where(where[:, None], floor, -np.inf)
+    heights = positions[:, contact_points(limbs), 1]  # (T, F, 2) toe, ankle
+    grounds = np.percentile(heights, GROUND_PERCENTILE, axis=(0, 1), keepdims=True, method=PERCENTILE_METHOD)
+    clearance = np.min(heights - grounds, axis=-1, keepdims=True)  # (T, F, 1)
+    floor = grounds + np.minimum(clearance, EXIT_HEIGHT_OF_LEG * leg_length(reference.skeleton, limbs))
+    return contacts, np.where(where[:, None, None], floor, -np.inf)
 
 
 def lift_to_ground(motion: Motion) -> Motion:
@@ -199,6 +218,13 @@ def _root_shift(
 def _carried_by_pelvis(skeleton: Skeleton, limbs: Limbs) -> list[int]:
     """The feet and their ancestors that move with the pelvis (the pelvis and the joints below it)."""
     return [j for j in skeleton.with_ancestors(limbs.feet).tolist() if is_below(skeleton, j, skeleton.pelvis)]
+
+
+def _checked_floor(floor: FloatArray, motion: Motion, limbs: Limbs) -> FloatArray:
+    floor = np.asarray(floor, dtype=np.float64)
+    if floor.shape != (motion.num_frames, len(limbs.toes), 2):
+        raise ValueError(f"foot_floor must be ({motion.num_frames}, {len(limbs.toes)}, 2), got {floor.shape}")
+    return floor
 
 
 def _checked(contacts: BoolArray, motion: Motion, limbs: Limbs) -> BoolArray:
@@ -307,6 +333,18 @@ def _pelvis_lowering(
     horizontal_sq = offset[..., 0] ** 2 + offset[..., 2] ** 2
     need = -offset[..., 1] - np.sqrt(np.maximum(reach**2 - horizontal_sq, 0.0))  # (T, F)
     return _eased_need(np.max(need, axis=1, initial=0.0), ramp_frames)  # (T,)
+
+
+def _eased_off_contact(need: FloatArray, contacts: BoolArray, ramp_frames: float) -> FloatArray:
+    """A lift needed per frame and foot (T, F) eased as `_eased_need` away from the foot's contacts (T, F)
+    and, over `ramp_frames` towards each, back to the frame's own need: a planted foot is lifted only as
+    far as it needs, and the lift does not jump where a contact starts or ends."""
+    eased = _eased_need(need, ramp_frames)
+    frames = np.arange(len(need), dtype=np.float64)[:, None]  # (T, 1)
+    last = np.maximum.accumulate(np.where(contacts, frames, -np.inf), axis=0)  # the latest contact so far
+    following = np.minimum.accumulate(np.where(contacts, frames, np.inf)[::-1], axis=0)[::-1]
+    away = np.clip(np.minimum(frames - last, following - frames) / max(ramp_frames, 1.0), 0.0, 1.0)
+    return need + away * away * (3 - 2 * away) * (eased - need)
 
 
 def _eased_need(need: FloatArray, ramp_frames: float) -> FloatArray:
