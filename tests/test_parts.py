@@ -15,7 +15,7 @@ from elastyle.core.body import find_limbs, leg_length
 from elastyle.core.parts import body_parts
 from elastyle.eval.metrics import cadence_steps_s
 from elastyle.io.dataset import ClipRef
-from elastyle.steps.arms import back_and_forth
+from elastyle.steps.arms import back_and_forth, steady_rhythm
 from elastyle.steps.contacts import EXIT_HEIGHT_OF_LEG
 from elastyle.types import FloatArray
 from tests.conftest import clip_named
@@ -205,6 +205,25 @@ def _back_and_forth(motion: Motion, side: str) -> float:
     hand = int(limbs.hands[0 if side == "left" else 1])
     path = motion.positions()[:, hand] / leg_length(motion.skeleton, limbs)
     return float(np.median(back_and_forth(path, np.zeros(1, dtype=np.int64), motion.fps)))
+
+
+def test_a_raises_one_turn_is_no_wave_but_a_waves_rhythm_lasts(dataset_clips: list[ClipRef]) -> None:
+    """A raise's hand comes back on itself within a second where it turns at the top, as a wave's does all
+    along: read over a few seconds (`steady_rhythm`, the content's rhythm in the arms' keep decision), the
+    raise has none and the waves, even an elderly one's small wave, keep theirs."""
+
+    def rhythm(name: str) -> tuple[FloatArray, FloatArray]:
+        motion = clip_named(dataset_clips, f"dataset-2_{name}").read()[0]
+        limbs = find_limbs(motion.skeleton)
+        path = motion.positions()[:, int(limbs.hands[0])] / leg_length(motion.skeleton, limbs)
+        raw = back_and_forth(path, np.zeros(1, dtype=np.int64), motion.fps)
+        return raw, steady_rhythm(raw, motion.fps)
+
+    for take in ("005", "010", "030"):
+        raw, steady = rhythm(f"raise-up-left-hand_normal_{take}")
+        assert raw.max() > 0.6 and steady.max() < 0.2, (take, raw.max(), steady.max())
+    for name in ("wave-left-hand_normal_010", "wave-left-hand_elderly_020"):
+        assert np.median(rhythm(name)[1]) > 0.4, name
 
 
 def test_a_waving_hand_given_a_walks_style_stays_raised_and_waves(

@@ -8,7 +8,9 @@ other measures, both in leg lengths, so any unit and skeleton size compare alike
                        one is about 1 leg; two manners of the same action differ by a few tenths
     rhythm difference  the difference of the share of the hand's path that comes back on itself within about
                        a second (`back_and_forth`): a wave or an arm swing is near 1, raising, lowering
-                       or holding near 0, whatever the motion's size, so a large wave and a small one agree
+                       or holding near 0, whatever the motion's size, so a large wave and a small one agree;
+                       the content's is its median over a few seconds (`steady_rhythm`), so a raise's one
+                       turn at its top does not count as back and forth
 
 Where either is over its threshold (`TransferConfig.arm_offset_above`, `arm_rhythm_above`), the arm keeps
 the content's action (`steps.keep`): a waving hand given a walk's style still waves, a raised hand given a
@@ -20,13 +22,15 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
-from elastyle.core.smoothing import moving_sum
+from elastyle.core.smoothing import moving_sum, pad_edges
 from elastyle.steps.search import Patch, mean_gap
 from elastyle.types import FloatArray, IntArray
 
 RHYTHM_WINDOW_S = 1.0  # the back-and-forth is measured over this long: one arm swing, several waves
 PATH_FLOOR = 0.2  # legs per window: a hand moving less than this reads as still (share near 0)
+STEADY_RHYTHM_S = 3.0  # the content's rhythm is its median over this long (`steady_rhythm`)
 
 
 class ArmMismatch(NamedTuple):
@@ -50,6 +54,16 @@ def back_and_forth(hand: FloatArray, clip_starts: IntArray, fps: float) -> Float
         net = np.linalg.norm(moving_sum(steps, width), axis=1)
         share[start:end] = (path - net) / (path + PATH_FLOOR)
     return share
+
+
+def steady_rhythm(rhythm: FloatArray, fps: float) -> FloatArray:
+    """(T,) a clip's `back_and_forth` (T,) as its running median over `STEADY_RHYTHM_S` (edges held): the one
+    turn of a raise from rising to lowering comes back on itself within a second too, but for a moment, so
+    it does not read as a wave, while a wave's or an arm swing's rhythm, which lasts, does. (The lower
+    median of the window, by a partition: numpy's median imports numpy.ma on its first call.)"""
+    half = max(1, int(round(STEADY_RHYTHM_S * fps / 2)))
+    windows = sliding_window_view(pad_edges(rhythm, half, half), 2 * half + 1)  # (T, 2 * half + 1)
+    return np.partition(windows, half, axis=-1)[:, half]
 
 
 def arm_mismatch(

@@ -16,7 +16,7 @@ from elastyle.core.resample import interpolate_rows
 from elastyle.core.smoothing import smooth
 from elastyle.errors import ClipTooShortError
 from elastyle.steps.action import TURNING_COLUMN, sustained_turning
-from elastyle.steps.arms import arm_mismatch, back_and_forth
+from elastyle.steps.arms import arm_mismatch, back_and_forth, steady_rhythm
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.library import StyleLibrary, match_frames
 from elastyle.steps.search import (
@@ -210,7 +210,7 @@ def style_track(
         if part == "legs":
             continue
         content_hand, library_hand = content_actions[:, columns[:3]], library.actions[:, columns[:3]]
-        content_rhythm = back_and_forth(content_hand, np.zeros(1, dtype=np.int64), fps)
+        content_rhythm = steady_rhythm(back_and_forth(content_hand, np.zeros(1, dtype=np.int64), fps), fps)
         library_rhythm = back_and_forth(library_hand, library.clip_starts, fps)
         arm, shifted_arm = (
             arm_mismatch(content_hand, content_rhythm, library_hand, library_rhythm, sequence, patch_frames)
