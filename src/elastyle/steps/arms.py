@@ -24,7 +24,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from elastyle.core.smoothing import moving_sum, pad_edges
+from elastyle.core.smoothing import moving_sum
 from elastyle.steps.search import Patch, mean_gap
 from elastyle.types import FloatArray, IntArray
 
@@ -57,13 +57,18 @@ def back_and_forth(hand: FloatArray, clip_starts: IntArray, fps: float) -> Float
 
 
 def steady_rhythm(rhythm: FloatArray, fps: float) -> FloatArray:
-    """(T,) a clip's `back_and_forth` (T,) as its running median over `STEADY_RHYTHM_S` (edges held): the one
+    """(T,) a clip's `back_and_forth` (T,) as its running median over `STEADY_RHYTHM_S` about each frame,
+    the window cut at the clip's ends (a clip shorter than it: its median over the whole clip): the one
     turn of a raise from rising to lowering comes back on itself within a second too, but for a moment, so
-    it does not read as a wave, while a wave's or an arm swing's rhythm, which lasts, does. (The lower
-    median of the window, by a partition: numpy's median imports numpy.ma on its first call.)"""
+    it does not read as a wave, while a wave's or an arm swing's rhythm, which lasts, does. (Where the cut
+    window holds an even count, the lower of its two middle values; sorted rows, not numpy's median, which
+    imports numpy.ma on its first call.)"""
     half = max(1, int(round(STEADY_RHYTHM_S * fps / 2)))
-    windows = sliding_window_view(pad_edges(rhythm, half, half), 2 * half + 1)  # (T, 2 * half + 1)
-    return np.partition(windows, half, axis=-1)[:, half]
+    padded = np.full(len(rhythm) + 2 * half, np.nan)
+    padded[half : half + len(rhythm)] = rhythm
+    windows = np.sort(sliding_window_view(padded, 2 * half + 1), axis=-1)  # (T, 2 * half + 1), NaN last
+    count = np.sum(~np.isnan(windows), axis=-1)  # (T,) the frames each cut window holds
+    return windows[np.arange(len(rhythm)), (count - 1) // 2]
 
 
 def arm_mismatch(

@@ -19,8 +19,8 @@ from elastyle.types import BoolArray, FloatArray, IntArray
 
 TOE, HEEL = 0, 1  # a foot's two contact points, last axis of point contacts: the toe joint, the ankle joint
 GROUND_PERCENTILE = 5.0  # a foot joint's ground level: this percentile of its heights over the clip
-# the nearest sample to that percentile: numpy's interpolating method costs a 30 ms import (numpy.ma) on
-# its first call in a process, a tenth of a command-line transfer
+# the nearest sample to that percentile: numpy's interpolating method imports numpy.ma (8 to 9 ms, a
+# twentieth of a command-line transfer) on its first call in a process
 PERCENTILE_METHOD: Final = "nearest"
 ENTER_HEIGHT_OF_LEG = 0.03  # a toe or ankle this close to its ground level (2.4 cm on an 80 cm leg) ...
 ENTER_SPEED_LEGS_S = 0.5  # ... and slower than this (40 cm/s) starts a contact
