@@ -209,24 +209,30 @@ def _back_and_forth(motion: Motion, side: str) -> float:
 
 def test_a_raises_one_turn_is_no_wave_but_a_waves_rhythm_lasts(dataset_clips: list[ClipRef]) -> None:
     """A raise's hand comes back on itself within a second where it turns at the top, as a wave's does all
-    along: read over a few seconds (`steady_rhythm`, the content's rhythm in the arms' keep decision), the
+    along: read over a few seconds (`steady_rhythm`, the rhythm the arms' keep decision compares), the
     raise has none and the waves, even an elderly one's small wave, keep theirs."""
 
     def rhythm(name: str) -> tuple[FloatArray, FloatArray]:
         motion = clip_named(dataset_clips, f"dataset-2_{name}").read()[0]
         limbs = find_limbs(motion.skeleton)
         path = motion.positions()[:, int(limbs.hands[0])] / leg_length(motion.skeleton, limbs)
-        raw = back_and_forth(path, np.zeros(1, dtype=np.int64), motion.fps)
-        return raw, steady_rhythm(raw, motion.fps)
+        one_clip = np.zeros(1, dtype=np.int64)
+        raw = back_and_forth(path, one_clip, motion.fps)
+        return raw, steady_rhythm(raw, one_clip, motion.fps)
 
     for take in ("005", "010", "030"):
         raw, steady = rhythm(f"raise-up-left-hand_normal_{take}")
         assert raw.max() > 0.6 and steady.max() < 0.2, (take, raw.max(), steady.max())
     for name in ("wave-left-hand_normal_010", "wave-left-hand_elderly_020"):
         assert np.median(rhythm(name)[1]) > 0.4, name
-    # a clip shorter than the window: its whole median everywhere, a moment's peak included
-    np.testing.assert_array_equal(steady_rhythm(np.array([0.1, 0.2, 0.9, 0.2, 0.1]), 30.0), np.full(5, 0.2))
-    assert steady_rhythm(np.array([0.5]), 30.0).tolist() == [0.5]
+    # a clip shorter than the window: its whole median everywhere, a moment's peak included; clips end to
+    # end each on their own
+    one_clip, two_clips = np.zeros(1, dtype=np.int64), np.array([0, 5])
+    short = np.array([0.1, 0.2, 0.9, 0.2, 0.1])
+    np.testing.assert_array_equal(steady_rhythm(short, one_clip, 30.0), np.full(5, 0.2))
+    both = steady_rhythm(np.concatenate([short, np.full(4, 0.7)]), two_clips, 30.0)
+    np.testing.assert_array_equal(both, [0.2] * 5 + [0.7] * 4)
+    assert steady_rhythm(np.array([0.5]), one_clip, 30.0).tolist() == [0.5]
 
 
 def test_a_waving_hand_given_a_walks_style_stays_raised_and_waves(

@@ -9,7 +9,7 @@ other measures, both in leg lengths, so any unit and skeleton size compare alike
     rhythm difference  the difference of the share of the hand's path that comes back on itself within about
                        a second (`back_and_forth`): a wave or an arm swing is near 1, raising, lowering
                        or holding near 0, whatever the motion's size, so a large wave and a small one agree;
-                       the content's is its median over a few seconds (`steady_rhythm`), so a raise's one
+                       both read as their median over a few seconds (`steady_rhythm`), so a raise's one
                        turn at its top does not count as back and forth
 
 Where either is over its threshold (`TransferConfig.arm_offset_above`, `arm_rhythm_above`), the arm keeps
@@ -56,19 +56,22 @@ def back_and_forth(hand: FloatArray, clip_starts: IntArray, fps: float) -> Float
     return share
 
 
-def steady_rhythm(rhythm: FloatArray, fps: float) -> FloatArray:
-    """(T,) a clip's `back_and_forth` (T,) as its running median over `STEADY_RHYTHM_S` about each frame,
-    the window cut at the clip's ends (a clip shorter than it: its median over the whole clip): the one
-    turn of a raise from rising to lowering comes back on itself within a second too, but for a moment, so
-    it does not read as a wave, while a wave's or an arm swing's rhythm, which lasts, does. (Where the cut
-    window holds an even count, the lower of its two middle values; sorted rows, not numpy's median, which
-    imports numpy.ma on its first call.)"""
+def steady_rhythm(rhythm: FloatArray, clip_starts: IntArray, fps: float) -> FloatArray:
+    """(T,) `back_and_forth` (T,) of clips end to end from clip_starts (K,), each as its running median over
+    `STEADY_RHYTHM_S` about each frame, the window cut at its clip's ends (a clip shorter than it: its
+    median over the whole clip): the one turn of a raise from rising to lowering comes back on itself
+    within a second too, but for a moment, so it does not read as a wave, while a wave's or an arm swing's
+    rhythm, which lasts, does. (Where a cut window holds an even count, the lower of its two middle values;
+    sorted rows, not numpy's median, which imports numpy.ma on its first call.)"""
     half = max(1, int(round(STEADY_RHYTHM_S * fps / 2)))
-    padded = np.full(len(rhythm) + 2 * half, np.nan)
-    padded[half : half + len(rhythm)] = rhythm
-    windows = np.sort(sliding_window_view(padded, 2 * half + 1), axis=-1)  # (T, 2 * half + 1), NaN last
-    count = np.sum(~np.isnan(windows), axis=-1)  # (T,) the frames each cut window holds
-    return windows[np.arange(len(rhythm)), (count - 1) // 2]
+    steady = np.zeros(len(rhythm))
+    for start, end in zip(clip_starts, np.append(clip_starts[1:], len(rhythm))):
+        padded = np.full(end - start + 2 * half, np.nan)
+        padded[half : half + end - start] = rhythm[start:end]
+        windows = np.sort(sliding_window_view(padded, 2 * half + 1), axis=-1)  # (n, 2 * half + 1), NaN last
+        count = np.sum(~np.isnan(windows), axis=-1)  # (n,) the frames each cut window holds
+        steady[start:end] = windows[np.arange(end - start), (count - 1) // 2]
+    return steady
 
 
 def arm_mismatch(

@@ -210,8 +210,11 @@ def style_track(
         if part == "legs":
             continue
         content_hand, library_hand = content_actions[:, columns[:3]], library.actions[:, columns[:3]]
-        content_rhythm = steady_rhythm(back_and_forth(content_hand, np.zeros(1, dtype=np.int64), fps), fps)
-        library_rhythm = back_and_forth(library_hand, library.clip_starts, fps)
+        one_clip = np.zeros(1, dtype=np.int64)
+        content_rhythm = steady_rhythm(back_and_forth(content_hand, one_clip, fps), one_clip, fps)
+        library_rhythm = steady_rhythm(
+            back_and_forth(library_hand, library.clip_starts, fps), library.clip_starts, fps
+        )
         arm, shifted_arm = (
             arm_mismatch(content_hand, content_rhythm, library_hand, library_rhythm, sequence, patch_frames)
             for sequence in (patches, shifted)
