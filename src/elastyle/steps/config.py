@@ -124,7 +124,7 @@ class TransferConfig:
         low=0.0, high=9.0,
     )  # fmt: skip
     kept_statistics: float = option(
-        0.3,
+        0.45,
         "where the legs keep the content's action because the matched style windows perform another (their "
         "travel and steps differ, not only their turning: a walk given a run's or a wave's style), the share of "
         "the style's statistics (the report's colouring of the content's latents) they take on top of it; "
