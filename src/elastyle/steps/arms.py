@@ -30,7 +30,7 @@ from elastyle.types import FloatArray, IntArray
 
 RHYTHM_WINDOW_S = 1.0  # the back-and-forth is measured over this long: one arm swing, several waves
 PATH_FLOOR = 0.2  # legs per window: a hand moving less than this reads as still (share near 0)
-STEADY_RHYTHM_S = 3.0  # the content's rhythm is its median over this long (`steady_rhythm`)
+STEADY_RHYTHM_S = 3.0  # both rhythms compared are their median over this long (`steady_rhythm`)
 
 
 class ArmMismatch(NamedTuple):

@@ -14,13 +14,12 @@ from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import pad_edges, smooth
 from elastyle.steps.contacts import (
     EXIT_HEIGHT_OF_LEG,
-    GROUND_PERCENTILE,
-    PERCENTILE_METHOD,
     contact_points,
     detect_contacts,
     ground_level,
     mask_runs,
     pivots,
+    point_grounds,
 )
 from elastyle.steps.leg_ik import is_below, leg_ik
 from elastyle.types import BoolArray, FloatArray, IntArray
@@ -135,8 +134,8 @@ def held_footing(reference: Motion, where: BoolArray) -> tuple[BoolArray, FloatA
     (T, F), and a floor under each foot (T, F, 2) for `clean_feet`, its toe's and ankle's lowest heights
     (file units), -inf outside `where`.
 
-    A foot's clearance is the lower of its toe's and its ankle's heights above their ground levels (their
-    5th percentiles, as `pivots` reads them). The floor lets each foot come no closer to the ground than the
+    A foot's clearance is the lower of its toe's and its ankle's heights above their ground levels
+    (`point_grounds`, as the contacts and `pivots` read them). The floor lets each foot come no closer to the ground than the
     reference's does at the same moment, up to `EXIT_HEIGHT_OF_LEG` (where a foot leaves contact): each
     point at its ground level plus that clearance. A change laid on such legs (the style's statistics) may
     lower a swinging foot until it skims or sinks through the floor the reference's foot clears; the floor
@@ -149,7 +148,7 @@ def held_footing(reference: Motion, where: BoolArray) -> tuple[BoolArray, FloatA
     positions = reference.positions(limbs.feet)
     contacts = detect_contacts(reference, positions) & where[:, None]
     heights = positions[:, contact_points(limbs), 1]  # (T, F, 2) toe, ankle
-    grounds = np.percentile(heights, GROUND_PERCENTILE, axis=(0, 1), keepdims=True, method=PERCENTILE_METHOD)
+    grounds = point_grounds(heights)  # (1, 1, 2)
     clearance = np.min(heights - grounds, axis=-1, keepdims=True)  # (T, F, 1)
     floor = grounds + np.minimum(clearance, EXIT_HEIGHT_OF_LEG * leg_length(reference.skeleton, limbs))
     return contacts, np.where(where[:, None, None], floor, -np.inf)

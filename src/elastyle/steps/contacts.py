@@ -42,6 +42,12 @@ def ground_level(motion: Motion, positions: FloatArray | None = None) -> float:
     return float(np.percentile(positions[:, toes, 1], GROUND_PERCENTILE, method=PERCENTILE_METHOD))
 
 
+def point_grounds(heights: FloatArray) -> FloatArray:
+    """(1, 1, 2) the ground level of each kind of contact point, toes and ankles apart, over every foot and
+    frame of their heights (T, F, 2): the `GROUND_PERCENTILE`."""
+    return np.percentile(heights, GROUND_PERCENTILE, axis=(0, 1), keepdims=True, method=PERCENTILE_METHOD)
+
+
 def contact_points(limbs: Limbs) -> IntArray:
     """(F, 2) each foot's contact joints: its toe (`TOE`) and its heel (`HEEL`, the ankle joint)."""
     return np.stack([limbs.toes, limbs.ankles], axis=1)
@@ -84,9 +90,7 @@ def detect_point_contacts(motion: Motion, positions: FloatArray | None = None) -
     leg = leg_length(motion.skeleton, limbs)
     joints = contact_points(limbs)  # (F, 2) toe and heel of each foot
     heights = positions[:, joints, 1]  # (T, F, 2)
-    heights = heights - np.percentile(
-        heights, GROUND_PERCENTILE, axis=(0, 1), keepdims=True, method=PERCENTILE_METHOD
-    )
+    heights = heights - point_grounds(heights)
     per_second = motion.fps / leg  # a frame step in file units, as leg lengths per second
     velocity = frame_steps(positions[:, joints]) * per_second  # (T, F, 2, 3) legs/s
     speed = lengths(velocity[..., [0, 2]])  # (T, F, 2)
@@ -145,9 +149,7 @@ def pivots(positions: FloatArray, limbs: Limbs, leg: float) -> tuple[FloatArray,
     track's speed test while the heel passes, and holding the heel there leaves the toe sliding.
     """
     points = positions[:, contact_points(limbs)]  # (T, F, 2, 3)
-    heights = points[..., 1] - np.percentile(
-        points[..., 1], GROUND_PERCENTILE, axis=(0, 1), method=PERCENTILE_METHOD
-    )  # (T, F, 2)
+    heights = points[..., 1] - point_grounds(points[..., 1])  # (T, F, 2)
     toe_weight = _smoothstep(1.0 + (heights[..., HEEL] - heights[..., TOE]) / (ENTER_HEIGHT_OF_LEG * leg))
     weights = np.stack([toe_weight, 1 - toe_weight], axis=-1)  # (T, F, 2), sums to 1
     pivot_height = np.sum(weights * heights, axis=-1)  # (T, F)
