@@ -95,6 +95,28 @@ def test_short_patches_read_no_tempo(model, content: Motion, style_clip: Motion,
     np.testing.assert_array_equal(outputs[0].rotations, outputs[1].rotations)
 
 
+def test_a_short_gesture_takes_a_much_slower_styles_pace(model, dataset_clips: list[ClipRef]) -> None:  # type: ignore[no-untyped-def]
+    # a 1.8 s raise (two whole patches) given an elderly raise that takes 2.6 times as long: its tempo is
+    # read from those two patches, so the output slows beyond the report's +-25 % and holds the hand up
+    content = clip_named(dataset_clips, "dataset-2_raise-up-left-hand_normal_005").read()[0]
+    style = clip_named(dataset_clips, "dataset-2_raise-up-left-hand_elderly_005").read()[0]
+    outputs = {
+        centre: transfer(content, style, TransferConfig(stretch_centre=centre), model=model).motion
+        for centre in ("tempo", "content")
+    }
+    assert outputs["content"].num_frames < 1.4 * content.num_frames < 1.6 * content.num_frames < outputs[
+        "tempo"
+    ].num_frames
+
+    def held_up_s(motion: Motion) -> float:
+        """How long the left hand stays within a fifth of its highest above the pelvis, seconds."""
+        hand = motion.skeleton.names.index("Hand_L")
+        height = motion.positions()[:, hand, 1] - motion.positions()[:, motion.skeleton.pelvis, 1]
+        return float(np.sum(height > height.min() + 0.8 * np.ptp(height)) / motion.fps)
+
+    assert held_up_s(outputs["tempo"]) > 1.4 > 1.0 > held_up_s(outputs["content"])
+
+
 def test_tempo_centred_stretches_surround_the_tempo() -> None:
     config = TransferConfig()
     np.testing.assert_array_equal(config.source_lengths(30, 30.0), np.arange(22, 39, 2))  # the report's range

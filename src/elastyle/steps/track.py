@@ -48,7 +48,7 @@ TEMPO_MISMATCH = 0.65
 TEMPO_MOVE = 0.25
 # fewer tried lengths are too coarse to read a tempo from (the median jumps between the range's ends)
 MIN_TEMPO_LENGTHS = 5
-MIN_TEMPO_PATCHES = 3  # patches needed to read a tempo
+MIN_TEMPO_PATCHES = 2  # patches needed to read a tempo
 KEEP_RAMP = 0.15  # a part's share of the content's action rises from 0 to 1 over this much mismatch
 MISMATCH_FLOOR = 0.3  # legs (per second): what a part's mismatch is relative to, at the least
 
