@@ -104,9 +104,12 @@ def test_a_short_gesture_takes_a_much_slower_styles_pace(model, dataset_clips: l
         centre: transfer(content, style, TransferConfig(stretch_centre=centre), model=model).motion
         for centre in ("tempo", "content")
     }
-    assert outputs["content"].num_frames < 1.4 * content.num_frames < 1.6 * content.num_frames < outputs[
-        "tempo"
-    ].num_frames
+    assert (
+        outputs["content"].num_frames
+        < 1.4 * content.num_frames
+        < 1.6 * content.num_frames
+        < outputs["tempo"].num_frames
+    )
 
     def held_up_s(motion: Motion) -> float:
         """How long the left hand stays within a fifth of its highest above the pelvis, seconds."""
