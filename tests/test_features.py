@@ -124,3 +124,19 @@ def test_smoothing_matches_scipy() -> None:
             np.testing.assert_allclose(
                 smooth(values, sigma), gaussian_filter1d(values, sigma, axis=0, mode="nearest"), atol=1e-12
             )
+
+
+def test_a_paths_smoothing_keeps_steady_travel_to_its_ends() -> None:
+    from elastyle.core.smoothing import smooth, smooth_path
+
+    frames = np.arange(40.0)
+    travel = np.stack([3.0 * frames + 5.0, -0.5 * frames], axis=1)  # (T, 2) steady travel, units per frame
+    sway = np.stack([np.sin(frames), np.zeros_like(frames)], axis=1)
+    for num_frames in (40, 5, 2):  # longer and shorter than the kernel's radius (30 frames for sigma 7.5)
+        line = travel[:num_frames]
+        np.testing.assert_allclose(smooth_path(line, 7.5), line, atol=1e-9)
+        assert abs(smooth(line, 7.5)[0, 0] - line[0, 0]) > 1.0 or num_frames == 2  # held edges pull it in
+    # a sway about the travel is smoothed away as before, and the path runs through the clip's ends
+    path = smooth_path(travel + sway, 3.0)
+    assert np.max(np.abs(path - travel)[:-8]) < 0.05
+    np.testing.assert_allclose(path[[0, -1]], (travel + sway)[[0, -1]], atol=1e-9)

@@ -120,6 +120,19 @@ def test_a_short_gesture_takes_a_much_slower_styles_pace(model, dataset_clips: l
     assert held_up_s(outputs["tempo"]) > 1.4 > 1.0 > held_up_s(outputs["content"])
 
 
+def test_the_output_walks_the_contents_path_to_its_ends(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
+    # on the content's clock, the root on the content's path: the pelvis starts and ends where the content's does
+    out = transfer(content, style_clip, model=model, timing="content", root_follows_legs=0.0).motion
+    gaps = np.linalg.norm(_path(out)[[0, -1]] - _path(content)[[0, -1]], axis=1)
+    assert np.all(gaps < 3.0), gaps  # cm; the path smoothed with held ends started 8 and ended 10 cm inside
+    # a clip of a second or less keeps its travel (held ends kept 10 of 26 cm of a third of a second)
+    for frames in (10, 30):
+        short = content.slice(60, 60 + frames)
+        travelled = np.linalg.norm(_path(short)[-1] - _path(short)[0])
+        kept = np.linalg.norm(np.subtract(*_path(transfer(short, style_clip, model=model).motion)[[-1, 0]]))
+        assert kept > 0.85 * travelled, (frames, kept, travelled)
+
+
 def test_tempo_centred_stretches_surround_the_tempo() -> None:
     config = TransferConfig()
     np.testing.assert_array_equal(config.source_lengths(30, 30.0), np.arange(22, 39, 2))  # the report's range

@@ -29,6 +29,20 @@ def smooth(values: FloatArray, sigma_frames: float) -> FloatArray:
     return (windows @ kernel).reshape(values.shape)
 
 
+def smooth_path(values: FloatArray, sigma_frames: float) -> FloatArray:
+    """Gaussian low-pass along time (axis 0) of (T, ...) values that travel, such as a root's path or
+    heading: the clip is extended past each end by its point reflection about that end (2 x[0] - x[k]), so
+    steady travel stays where it is up to the last frame. (Held edges would pull the ends towards the
+    clip's middle by up to the distance travelled in about a sigma: a walk's path would start ahead of its
+    pelvis and end behind it.)"""
+    if sigma_frames <= 0 or values.shape[0] < 2:
+        return values.copy()
+    radius = int(4.0 * sigma_frames + 0.5)
+    flat = values.reshape(values.shape[0], -1)  # (T, N)
+    padded = np.pad(flat, ((radius, radius), (0, 0)), mode="reflect", reflect_type="odd")  # (T + 2r, N)
+    return smooth(padded, sigma_frames)[radius : radius + values.shape[0]].reshape(values.shape)
+
+
 def _covering_weights(kernel: FloatArray, num_frames: int) -> FloatArray:
     """(T, T) weights of a kernel (2r + 1,) of radius r >= T - 1 on a clip of T frames, edges held: row t
     reads frame s at kernel[r + s - t], and the first and last frames also take the kernel beyond them."""

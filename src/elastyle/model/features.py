@@ -6,7 +6,8 @@ Channels per frame, in this order (docs/method.md, "Features"):
   * the pelvis: exp map of ref^-1 (heading^-1 R_world), its tilt and roll relative to the heading (3);
   * the pelvis's sway: its horizontal offset from the smoothed path, in the heading frame (2, file units);
   * the pelvis's height above the ground plane y = 0 (1, file units).
-What is not transferred, the `RootPath`: the smoothed horizontal path and heading of the pelvis, and the
+What is not transferred, the `RootPath`: the smoothed horizontal path and heading of the pelvis (smoothed
+so that steady travel and turning are kept to the clip's ends, `core.smoothing.smooth_path`), and the
 joints above it, all from the content.
 """
 
@@ -33,7 +34,7 @@ from elastyle.core.rotations import (
     to_quat,
 )
 from elastyle.core.skeleton import Skeleton
-from elastyle.core.smoothing import smooth
+from elastyle.core.smoothing import smooth_path
 from elastyle.types import FloatArray, IntArray
 
 PATH_SMOOTHING_S = 0.25  # Gaussian sigma separating the path (kept) from the sway (transferred)
@@ -94,7 +95,7 @@ class FeatureSpec:
         pelvis positions (T, 3)."""
         pelvis = self.skeleton.pelvis
         world_rotations, world_positions = motion.world([pelvis])
-        yaw = smooth(
+        yaw = smooth_path(
             heading_yaw(world_rotations[:, pelvis], self.forward_local), PATH_SMOOTHING_S * motion.fps
         )
         quats = to_quat(motion.rotations)
@@ -111,7 +112,7 @@ class FeatureSpec:
         )  # (T, J_pose, 4)
         quats = continuous_quats(relative, axis=0)
         quats *= np.where(quats[:1, :, 3:] < 0, -1.0, 1.0)  # start on the identity's hemisphere
-        path = smooth(pelvis_positions[:, [0, 2]], PATH_SMOOTHING_S * motion.fps)  # (T, 2) x, z
+        path = smooth_path(pelvis_positions[:, [0, 2]], PATH_SMOOTHING_S * motion.fps)  # (T, 2) x, z
         offset = np.zeros_like(pelvis_positions)
         offset[:, [0, 2]] = pelvis_positions[:, [0, 2]] - path
         sway = np.einsum("tji,tj->ti", yaw_matrices(yaw), offset)[:, [0, 2]]  # (T, 2) heading frame
