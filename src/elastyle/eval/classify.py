@@ -1,7 +1,8 @@
 """Style and content recognition: ridge classifiers on clip descriptors, trained on real dataset clips.
 
 A clip's descriptor is the mean and standard deviation over time of its pose features (joint rotations
-relative to the model's references, pelvis sway and height) plus its cadence and arm-swing frequency.
+relative to the model's references, pelvis sway and height) and of its travel (forward, sideways and
+turning), plus its cadence and arm-swing frequency.
 The classifier is one-vs-rest ridge regression on standardised descriptors: small, deterministic, numpy.
 """
 
@@ -15,14 +16,19 @@ import numpy as np
 from elastyle.core.motion import Motion
 from elastyle.eval.metrics import arm_swing_hz, cadence_steps_s
 from elastyle.model.features import FeatureSpec
+from elastyle.steps.action import action_channels
 from elastyle.types import FloatArray
 
 
 def describe(motion: Motion, spec: FeatureSpec) -> FloatArray:
-    """Descriptor (2C + 2,) of a clip."""
+    """Descriptor (2C + 8,) of a clip: its pose features' mean and standard deviation, its travel's
+    (forward, sideways, turning: `steps.action`) too, then its cadence and arm-swing frequency."""
     features, _ = spec.encode(motion)
+    travel = action_channels(motion)[:, :3]  # (T, 3) legs/s and rad/s, in the heading frame
     rhythm = np.nan_to_num([cadence_steps_s(motion), arm_swing_hz(motion)])
-    return np.concatenate([features.mean(axis=0), features.std(axis=0), rhythm])
+    return np.concatenate(
+        [features.mean(axis=0), features.std(axis=0), travel.mean(axis=0), travel.std(axis=0), rhythm]
+    )
 
 
 @dataclass(frozen=True, eq=False)
