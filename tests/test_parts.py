@@ -301,6 +301,7 @@ def test_a_backward_walk_takes_the_style_played_backwards(model, clips: dict[str
     with caplog.at_level("WARNING"):
         kept = transfer(back, style, model=model)
     assert "walks backwards" in caplog.text and "--reverse-style" in caplog.text
+    assert any("walks backwards" in note for note in kept.explain["notes"])  # as printed
     assert {p["mode"] for p in kept.explain["styles"][0]["patches"]} == {
         "content"
     }  # its legs keep walking back

@@ -129,6 +129,30 @@ def test_usage_errors_exit_2(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(
+    "args, named",
+    [
+        (["transfer", "a.bvh", "-o", "x.bvh"], "--style"),
+        (["transfer", "a.bvh", "--style", "a.bvh", "-o", "x.bvh", "--units", "km"], "--units"),
+        (["frobnicate"], "frobnicate"),
+    ],
+)
+def test_usage_errors_are_one_line(args: list[str], named: str) -> None:
+    result = _cli(*args)
+    assert result.returncode == 2
+    assert result.stderr.count("\n") == 1 and named in result.stderr and "--help" in result.stderr, (
+        result.stderr
+    )
+
+
+def test_verbose_works_after_the_command_too(tmp_path: Path) -> None:
+    missing = str(tmp_path / "missing.bvh")
+    for args in (["--verbose", "info", missing], ["info", missing, "--verbose"]):
+        result = _cli(*args)
+        assert result.returncode == 1 and "Traceback" in result.stderr, args
+    assert "Traceback" not in _cli("info", missing).stderr
+
+
+@pytest.mark.parametrize(
     "flags, named",
     [
         (["--patch-s", "inf"], "--patch-s"),

@@ -230,6 +230,8 @@ def test_content_shorter_than_one_patch_still_transfers(model, content: Motion, 
     result = transfer(short, style_clip, model=model)
     assert 1 <= result.motion.num_frames <= 12 * 1.5
     assert len(result.explain["styles"][0]["patches"]) == 1
+    assert any("shorter than one patch" in note for note in result.explain["notes"])  # printed and recorded
+    assert not transfer(content, style_clip, model=model).explain["notes"]
     same = transfer(short, style_clip, model=model, strength=0.0).motion
     np.testing.assert_allclose(same.positions(), short.positions(), atol=1e-9)
     with pytest.raises(ClipTooShortError, match="at least 2"):
@@ -329,3 +331,13 @@ def test_the_fallback_engages_on_a_cross_pair_and_not_on_a_walk_pair(
     assert set(on_walk) == {"swap"}, on_walk
     default = transfer(walk, wave, model=model).explain["styles"][0]["patches"]
     assert "statistics" not in {patch["mode"] for patch in default}  # off unless asked
+
+
+def test_a_path_given_for_a_clip_says_to_read_it_first(model, content: Motion, walk_clip: ClipRef) -> None:  # type: ignore[no-untyped-def]
+    path = walk_clip.name
+    with pytest.raises(TypeError, match="content must be a Motion.*read_bvh"):
+        transfer(path, content, model=model)
+    with pytest.raises(TypeError, match="style must be a Motion.*read_bvh"):
+        transfer(content, path, model=model)
+    with pytest.raises(TypeError, match=r"returns \(motion, layout\)"):
+        transfer(content, [walk_clip.read()], model=model)

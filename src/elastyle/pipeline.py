@@ -55,7 +55,7 @@ from elastyle.steps.keep import keep_target, keep_weights, statistics_weights
 from elastyle.steps.library import StyleLibrary, as_library
 from elastyle.steps.schedule import Schedule
 from elastyle.steps.timeline import content_grid, mix_tracks, on_output_frames, output_content_times
-from elastyle.steps.track import style_track
+from elastyle.steps.track import requested_patch_frames, style_track
 from elastyle.types import BoolArray, FloatArray
 
 StyleInput = Motion | Sequence[Motion] | StyleLibrary
@@ -94,24 +94,29 @@ def transfer(
         whose manner those parts take instead (on the output's one clock, which `style` sets).
     """
     config = TransferConfig.of(config, **options)
+    _check_clip_type(content, "content")
     model = model or load_model()
     model.check_clip(content, content_name)
     given, (content, size) = content, model.at_model_size(content)  # transferred at the model's size
+    notes: list[str] = []  # every note and warning printed, also kept in the explain record
     note = no_legs_note(content.skeleton, content_name) if config.cleanup else None
     if note is not None:
-        log.warning("%s", note)
+        _say(notes, note)
     fps = model.fps
     working = content.resample(fps)
     if working.num_frames < 2:
         raise ClipTooShortError(f"{content_name}: {content.num_frames} frame(s); a transfer needs at least 2")
     libraries = [as_library(model, style, style_names, config.mirror_style, config.reverse_style)]
+    patch_frames = min(requested_patch_frames(config, fps), libraries[0].longest_clip)
+    if config.method in ("elastic", "rigid") and working.num_frames < patch_frames:
+        _say(notes, short_content_note(content_name, content.duration_s, patch_frames / fps))
     if second_style is not None:
         change = _as_schedule(second_weight)
         if change.times_s[0] >= content.duration_s and change.values[0] == 0:
-            log.warning(
-                "note: %s: the change to the second style starts at %g s, after the clip's end (%.2f s): it "
-                "does not show", content_name, change.times_s[0], content.duration_s,
-            )  # fmt: skip
+            _say(notes, (
+                f"note: {content_name}: the change to the second style starts at {change.times_s[0]:g} s, after "
+                f"the clip's end ({content.duration_s:.2f} s): it does not show"
+            ))  # fmt: skip
         libraries.append(
             as_library(model, second_style, second_style_names, config.mirror_style, config.reverse_style)
         )
@@ -133,15 +138,15 @@ def transfer(
     error_cm = reconstruction_error_cm(model, working, content_latents, root)
     warning = depth_warning(model, error_cm, content_name)
     if warning is not None:
-        log.warning("%s", warning)
+        _say(notes, warning)
     # whiten, match, place, cross-fade and colour: one track per style library on a content-time grid
     grid = content_grid(working.num_frames)  # (G,) content frames
     actions = action_channels(working)  # (T, A) what the body does, matched beside the latents
     if not config.reverse_style and walks_backwards(actions):
-        log.warning(
-            "note: %s walks backwards; the style's forward steps will not match its legs, which then keep "
-            "their own action: --reverse-style adds the style clips played backwards", content_name,
-        )  # fmt: skip
+        _say(notes, (
+            f"note: {content_name} walks backwards; the style's forward steps will not match its legs, which "
+            "then keep their own action: --reverse-style adds the style clips played backwards"
+        ))  # fmt: skip
     columns = part_channels(working.skeleton)  # each body part's action columns
     tracks = [
         style_track(content_latents, actions, library, grid, config, fps, columns) for library in libraries
@@ -228,6 +233,7 @@ def transfer(
             motion = motion.with_joints(content_at, kept, translations=True)
     _check_finite(motion, "foot clean-up" if config.cleanup else "decoding", content_name)
     record = explain(tracks, libraries, content_time, fps, config)
+    record["notes"] = [*notes, *record["notes"]]
     if part_tracks:
         part_record = explain(
             [t for _, t in part_tracks], [lib for _, lib in by_part], content_time, fps, config
@@ -272,6 +278,30 @@ def _clean_up(
     known from elsewhere, held besides those found; foot_floor: (N, F, 2) the lowest height of each foot's
     toe and ankle (`steps.cleanup.clean_feet`)."""
     return plant_feet(motion, config.root_follows_legs, also, foot_floor)
+
+
+def short_content_note(content_name: str, duration_s: float, patch_s: float) -> str:
+    """The note for a content shorter than one patch of `patch_s` seconds."""
+    return (
+        f"note: {content_name}: {duration_s:.2f} s, shorter than one patch ({patch_s:.2f} s): the whole "
+        "clip is matched as one stretched window, so it takes the style's manner only roughly and its length "
+        "follows that window's stretch"
+    )
+
+
+def _check_clip_type(value: object, role: str) -> None:
+    """A TypeError that says what to do when a path or other object is given where a clip belongs."""
+    if not isinstance(value, Motion):
+        raise TypeError(
+            f"the {role} must be a Motion, got {type(value).__name__} {value!r:.80}: read a file first with "
+            "elastyle.read_bvh(path), which returns (motion, layout)"
+        )
+
+
+def _say(notes: list[str], text: str) -> None:
+    """Print a note or warning (stderr, through logging) and keep it for the explain record."""
+    log.warning("%s", text)
+    notes.append(text)
 
 
 def _check_finite(motion: Motion, step: str, content_name: str) -> None:

@@ -11,6 +11,7 @@ import logging
 import os
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
 from elastyle.cli.options import add_units_flag
 from elastyle.errors import ElastyleError, UsageError
@@ -64,11 +65,19 @@ def _command_convert(args: argparse.Namespace) -> int:
     return 0
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """Usage errors as one line, as every other error is (argparse prints the whole usage first)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+VERBOSE_HELP = "show tracebacks and debug logging"
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="elastyle", description="Zero-shot motion style transfer for BVH clips."
-    )
-    parser.add_argument("--verbose", action="store_true", help="show tracebacks and debug logging")
+    parser = _OneLineParser(prog="elastyle", description="Zero-shot motion style transfer for BVH clips.")
+    parser.add_argument("--verbose", action="store_true", help=VERBOSE_HELP)
     commands = parser.add_subparsers(dest="command", required=True)
 
     info = commands.add_parser("info", help="joints, channels, frames, fps, duration and height of clips")
@@ -99,6 +108,8 @@ def build_parser() -> argparse.ArgumentParser:
     from elastyle.cli.eval import add_eval_commands
 
     add_eval_commands(commands)
+    for command in commands.choices.values():  # also after the command's name (the default: before it)
+        command.add_argument("--verbose", action="store_true", default=argparse.SUPPRESS, help=VERBOSE_HELP)
     return parser
 
 

@@ -87,7 +87,7 @@ def check_output_path(
                 f"{target}: would overwrite {source}, which this command reads or writes; choose another name"
             )
     if target.exists() and not force:
-        raise OutputError(f"{target}: already exists (use --force to overwrite)")
+        raise OutputError(f"{target}: already exists (--force, or force=True in Python, overwrites it)")
     if probe:
         check_writable(target)
     return target
@@ -140,7 +140,9 @@ def write_bytes_atomic(
             _link_new(temporary, target)
     except FileExistsError:
         temporary.unlink(missing_ok=True)
-        raise OutputError(f"{target}: already exists (use --force to overwrite)") from None
+        raise OutputError(
+            f"{target}: already exists (--force, or force=True in Python, overwrites it)"
+        ) from None
     except OSError as error:
         temporary.unlink(missing_ok=True)
         raise OutputError(f"{target}: write failed: {error.strerror or error}") from None

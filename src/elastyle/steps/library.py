@@ -7,6 +7,7 @@ searched by every transfer against it.
 from __future__ import annotations
 
 import logging
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -138,7 +139,18 @@ def as_library(
     """A prepared library as it is; one clip or several clips encoded into one."""
     if isinstance(style, StyleLibrary):
         return style
+    if isinstance(style, (str, bytes, os.PathLike)):
+        raise TypeError(
+            f"the style must be a Motion, a list of them or a StyleLibrary, got the path {style!r:.80}: read it "
+            "first with elastyle.read_bvh(path), which returns (motion, layout)"
+        )
     motions = [style] if isinstance(style, Motion) else list(style)
     if not motions:
         raise ElastyleError("no style clips given")
+    for motion in motions:
+        if not isinstance(motion, Motion):
+            raise TypeError(
+                f"style clips must be Motions, got {type(motion).__name__} (elastyle.read_bvh returns (motion, "
+                "layout): pass its motion)"
+            )
     return prepare_style(model, motions, names, mirror_style, reverse_style)
