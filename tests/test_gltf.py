@@ -150,3 +150,14 @@ def test_a_damaged_glb_is_one_line(three_channel_bvh: Path, tmp_path: Path) -> N
     )
     assert result.returncode == 1 and "cut.glb" in result.stderr and "Traceback" not in result.stderr
     assert result.stderr.count("\n") == 1, result.stderr
+
+
+def test_units_does_not_apply_to_glb_clips_which_are_metres(three_channel_bvh: Path, tmp_path: Path) -> None:
+    from elastyle.core.body import centimetres_per_unit, in_units
+
+    motion, layout = read_bvh(three_channel_bvh)
+    target = tmp_path / "clip.glb"
+    write_clip(target, motion, layout)
+    read_back = read_bvh(target)[0]
+    assert centimetres_per_unit(in_units(read_back, "cm").skeleton) == 100.0
+    assert centimetres_per_unit(in_units(motion, "cm").skeleton) == 1.0  # a BVH takes the stated unit

@@ -75,3 +75,21 @@ def test_a_resized_clips_figures_are_at_the_models_size_whether_its_unit_is_stat
         assert clip_depth(model, in_units(large, "cm"), "walk")[0] == pytest.approx(
             clip_depth(model, large, "walk")[0]
         )
+
+
+@pytest.mark.parametrize(
+    "factor, unit_cm", [(1.0, 1.0), (0.75, 1.0), (1 / 2.54, 2.54), (1.2 / 2.54, 2.54), (0.01, 100.0)]
+)
+def test_the_unit_is_guessed_from_the_bodys_height_not_its_rest_pose(
+    content: Motion, factor: float, unit_cm: float
+) -> None:
+    from elastyle.core.body import centimetres_per_unit
+
+    # the dataset's rest pose lies along X, 99.8 cm tall: a smaller body in centimetres was read as inches
+    skeleton = content.scaled(factor).skeleton
+    assert centimetres_per_unit(skeleton) == unit_cm, factor
+
+
+def test_a_guessed_unit_other_than_centimetres_is_said(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
+    notes = transfer(content.slice(0, 60).scaled(1 / 2.54), style_clip, model=model).explain["notes"]
+    assert any("guessed as in" in note and "--units" in note for note in notes), notes

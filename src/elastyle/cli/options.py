@@ -57,12 +57,12 @@ def add_units_flag(
     effect: str = "clips are transferred at the model's size and written at their own, and it scales reported "
     "figures and .glb output",
 ) -> None:
-    """`--units`: the clips' length unit, where the guess from the rest height would be wrong; `effect`
+    """`--units`: the clips' length unit, where the guess from the body's height would be wrong; `effect`
     says what the command does with it."""
     from elastyle.core.body import UNITS
 
     parser.add_argument(
         "--units", choices=sorted(UNITS),
-        help="the clips' length unit (default: guessed from the rest height: metres below 5 units tall, inches "
-        f"from 40 to 90, else centimetres); {effect}",
+        help="the BVH clips' length unit (default: guessed from the body's height, read from its bone lengths: "
+        f"metres below 5 units tall, inches from 40 to 90, else centimetres; .glb clips are metres); {effect}",
     )  # fmt: skip

@@ -64,15 +64,38 @@ UNITS = {"cm": 1.0, "m": 100.0, "mm": 0.1, "in": 2.54}  # centimetres per unit, 
 
 def centimetres_per_unit(skeleton: Skeleton) -> float:
     """The file's length unit in centimetres: as the user stated it (`Skeleton.unit_cm`), else guessed from
-    the rest height: metres below 5 units tall, inches from 40 to 90, else centimetres."""
+    the body's height (`standing_height`): metres below 5 units tall, inches from 40 to 90, else centimetres."""
     if skeleton.unit_cm is not None:
         return skeleton.unit_cm
-    height = skeleton.height()
+    height = standing_height(skeleton)
     if height < 5:
         return 100.0
     if 40 < height < 90:
         return 2.54
     return 1.0
+
+
+def standing_height(skeleton: Skeleton) -> float:
+    """About how tall the body stands, in the file's unit, from its bone lengths whatever its rest pose: the
+    chain from the pelvis down each leg to its toe's end (their mean) plus the longest chain from the pelvis
+    up the spine (arms left out), End Sites included; the rest pose's vertical extent where no legs are
+    found. (A rest pose need not stand: the dataset's lies along X, 99.8 cm tall, for a 165 cm body.)"""
+    limbs = find_limbs(skeleton)
+    if not len(limbs.toes):
+        return skeleton.height()
+    bones = np.linalg.norm(skeleton.offsets, axis=1)  # (J,) each joint's distance from its parent
+    ends = np.nan_to_num(np.linalg.norm(skeleton.end_sites, axis=1))  # (J,) its End Site's, 0 for none
+    reach = np.zeros(skeleton.num_joints)  # (J,) chain length from the root
+    spine = np.zeros(skeleton.num_joints, dtype=bool)  # joints above the pelvis, not in a leg or an arm
+    elsewhere = {skeleton.pelvis, *limbs.hips.tolist(), *limbs.arm_roots.tolist()}
+    for joint in range(1, skeleton.num_joints):
+        parent = int(skeleton.parents[joint])
+        reach[joint] = reach[parent] + bones[joint]
+        spine[joint] = joint not in elsewhere and (parent == skeleton.pelvis or spine[parent])
+    pelvis = reach[skeleton.pelvis]
+    legs = float(np.mean(reach[limbs.toes] + ends[limbs.toes])) - pelvis
+    up = float(np.max(reach[spine] + ends[spine])) - pelvis if np.any(spine) else 0.0
+    return legs + up
 
 
 # clips within this share of the reference skeleton's rest height keep their own size: the training
@@ -82,7 +105,7 @@ SIZE_TOLERANCE = 0.02
 
 def size_factor(clip: Skeleton, reference: Skeleton) -> float:
     """The scale that brings a clip's skeleton to the reference's length unit (`centimetres_per_unit`: as
-    stated with `--units`, else guessed from the rest height) and, where its rest height then lies more than
+    stated with `--units`, else guessed from the body's height) and, where its rest height then lies more than
     `SIZE_TOLERANCE` from the reference's, to the reference's height (1 for a flat skeleton).
 
     A model reads clips at its own skeleton's size and trains on clips brought to its first clip's: some
@@ -110,8 +133,9 @@ def at_size_of(motion: Motion, reference: Skeleton) -> tuple[Motion, float]:
 
 
 def in_units(motion: Motion, unit: str | None) -> Motion:
-    """The clip with its length unit stated (a key of `UNITS`), or as it is for None."""
-    if unit is None:
+    """The clip with its length unit stated (a key of `UNITS`), or as it is for None or where its file
+    format fixes the unit already (glTF: metres), so one --units for clips of both formats reads each right."""
+    if unit is None or motion.skeleton.unit_cm is not None:
         return motion
     skeleton = replace(motion.skeleton, unit_cm=UNITS[unit])
     return Motion(skeleton, motion.rotations, motion.translations, motion.fps)

@@ -34,8 +34,8 @@ class Skeleton:
     parents: (J,) parent index per joint, -1 for the root; parents[j] < j.
     offsets: (J, 3) rest offset of each joint from its parent, in the file's length unit.
     end_sites: (J, 3) End Site offset of each joint (NaN where the joint has none).
-    unit_cm: centimetres per file unit where the user stated the unit (`--units`); None: guessed from the
-             rest height (`core.body.centimetres_per_unit`).
+    unit_cm: centimetres per file unit where the user or the file format stated the unit (`--units`; glTF:
+             metres); None: guessed from the body's height (`core.body.centimetres_per_unit`).
     A skeleton is immutable: lookups derived from it (pelvis, mirror pairs, limbs) are computed once.
     """
 

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from elastyle.core.body import UNITS
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import from_quat
 from elastyle.core.skeleton import Skeleton
@@ -71,7 +72,7 @@ def parse_glb(data: bytes, name: str) -> Motion:
         leaves = [c for c in node.children or [] if c not in index]
         if leaves:
             end_sites[j] = document.nodes[leaves[0]].translation or [0.0, 0.0, 0.0]
-    skeleton = Skeleton(names, parents, offsets, end_sites)
+    skeleton = Skeleton(names, parents, offsets, end_sites, unit_cm=UNITS["m"])  # glTF's unit is the metre
     return Motion(skeleton, rotations, translations, frame_rate(float(steps.mean())))
 
 

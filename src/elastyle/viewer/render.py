@@ -128,7 +128,7 @@ def render_clips(
 
     Clips play from time 0 together; a shorter clip holds its last frame. `fps` defaults to the fastest clip's
     rate (at most 30 for GIF). Lengths are drawn in centimetres, each clip from its own length unit (as stated
-    with `--units`, else guessed from its rest height), so a clip in metres stands beside one in centimetres.
+    with `--units`, else guessed from its body's height), so a clip in metres stands beside one in centimetres.
     """
     if len(motions) != len(labels):
         raise ValueError(f"{len(motions)} motions but {len(labels)} labels")
