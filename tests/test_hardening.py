@@ -317,3 +317,22 @@ def test_a_cache_that_cannot_be_written_does_not_fail_a_transfer(
     result = _cli("transfer", walk, "--style", walk, "-o", str(out), env={"ELASTYLE_CACHE": str(blocked)})
     assert result.returncode == 0, result.stderr
     assert out.exists()
+
+
+def test_a_cache_entry_of_another_width_is_encoded_again(
+    tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
+    import numpy as np
+
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005").name
+    env = {"ELASTYLE_CACHE": str(tmp_path / "cache")}
+    first = _cli("transfer", walk, "--style", walk, "-o", str(tmp_path / "a.bvh"), env=env)
+    assert first.returncode == 0, first.stderr
+    (entry,) = (tmp_path / "cache" / "libraries").iterdir()
+    with np.load(entry) as archive:
+        arrays = dict(archive)
+    arrays["actions"] = np.zeros((len(arrays["actions"]), 17))  # as an older version's might hold
+    np.savez(entry, **arrays)
+    again = _cli("transfer", walk, "--style", walk, "-o", str(tmp_path / "b.bvh"), env=env)
+    assert again.returncode == 0, again.stderr
+    assert (tmp_path / "a.bvh").read_bytes() == (tmp_path / "b.bvh").read_bytes()

@@ -289,3 +289,39 @@ def test_units_stated_on_the_command_line_override_the_guess(tmp_path: Path, wal
     assert figures[False] != pytest.approx(stated)
     wrong = _cli("eval", str(path), "--content", str(path), "--style", str(path), "--units", "furlong")
     assert wrong.returncode == 2 and "--units" in wrong.stderr
+
+
+@pytest.mark.parametrize("scheme", list(SCHEMES))
+def test_the_models_skeleton_under_other_names_transfers_as_it_does(
+    walk: Motion, dataset_clips: list[ClipRef], scheme: str
+) -> None:
+    from elastyle.pipeline import transfer
+
+    model = load_model()
+    style = clip_named(dataset_clips, "dataset-2_walk_active_010").read()[0]
+    mirror = scheme != "unnamed"  # without side names there is no mirror to add to the library
+    own = transfer(walk, style, model=model, mirror_style=mirror).motion
+    renamed = transfer(_renamed(walk, scheme), _renamed(style, scheme), model=model)
+    assert renamed.motion.skeleton.names == _renamed(walk, scheme).skeleton.names  # on the clip's own names
+    np.testing.assert_allclose(renamed.motion.positions(), own.positions(), atol=1e-6)
+    assert any("joint names differ from the model's" in note for note in renamed.explain["notes"])
+
+
+def test_a_renamed_skeleton_whose_sides_or_rest_pose_differ_is_refused(walk: Motion) -> None:
+    from elastyle import SkeletonMismatchError
+    from elastyle.pipeline import transfer
+
+    skeleton = _renamed(walk, "camel").skeleton
+    swapped = tuple(
+        n.replace("L", "#").replace("R", "L").replace("#", "R") if n[-1] in "LR" else n
+        for n in skeleton.names
+    )
+    turned = skeleton.offsets.copy()
+    turned[2:] = turned[2:, [1, 0, 2]]  # every bone above the pelvis along another axis at rest: a T-pose
+    for other in (
+        Skeleton(swapped, skeleton.parents, skeleton.offsets, skeleton.end_sites),
+        Skeleton(skeleton.names, skeleton.parents, turned, skeleton.end_sites),
+    ):
+        clip = Motion(other, walk.rotations, walk.translations, walk.fps)
+        with pytest.raises(SkeletonMismatchError, match="skeleton differs from the model"):
+            transfer(clip, clip, model=load_model())

@@ -96,9 +96,11 @@ def transfer(
     config = TransferConfig.of(config, **options)
     _check_clip_type(content, "content")
     model = model or load_model()
-    model.check_clip(content, content_name)
+    renamed = model.check_clip(content, content_name)
     given, (content, size) = content, model.at_model_size(content)  # transferred at the model's size
     notes: list[str] = []  # every note and warning printed, also kept in the explain record
+    if renamed is not None:
+        _say(notes, renamed)
     if given.skeleton.unit_cm is None and centimetres_per_unit(given.skeleton) != UNITS["cm"]:
         unit = next(name for name, cm in UNITS.items() if cm == centimetres_per_unit(given.skeleton))
         _say(notes, (

@@ -175,6 +175,34 @@ def _deepest_descendant(skeleton: Skeleton, joint: int) -> int:
 _LIMBS: weakref.WeakKeyDictionary[Skeleton, Limbs] = weakref.WeakKeyDictionary()
 
 
+BONE_DIRECTION_DEGREES = 20.0  # a renamed skeleton's bones point the same way at rest, within this
+
+
+def same_structure(reference: Skeleton, other: Skeleton) -> bool:
+    """Whether `other` is `reference` under other joint names: the same hierarchy, its legs and arms found at
+    the same joints on the same sides (whatever the naming scheme), and every bone below the pelvis pointing
+    the same way at rest within `BONE_DIRECTION_DEGREES` (local rotations mean the same pose only about the
+    same rest pose; sizes may differ)."""
+    if reference.num_joints != other.num_joints or not np.array_equal(reference.parents, other.parents):
+        return False
+    ours, theirs = find_limbs(reference), find_limbs(other)
+    if not len(ours.toes) or not len(ours.hands):
+        return False  # no limbs to check the joints' roles by
+    for name in ("toes", "ankles", "hips", "hands", "arm_roots"):
+        if not np.array_equal(getattr(ours, name), getattr(theirs, name)):
+            return False
+    both_sided = (reference.sides() != 0) & (other.sides() != 0)
+    if np.any(reference.sides()[both_sided] != other.sides()[both_sided]):
+        return False
+    lengths = np.linalg.norm(reference.offsets, axis=1), np.linalg.norm(other.offsets, axis=1)
+    bones = (lengths[0] > 1e-9 * lengths[0].max()) & (lengths[1] > 1e-9 * lengths[1].max())
+    bones[: reference.pelvis + 1] = False  # the pelvis and above: placed by their position channels
+    cosines = (
+        np.sum(reference.offsets[bones] * other.offsets[bones], axis=1) / (lengths[0] * lengths[1])[bones]
+    )
+    return bool(np.all(cosines >= np.cos(np.radians(BONE_DIRECTION_DEGREES))))
+
+
 def find_limbs(skeleton: Skeleton) -> Limbs:
     """The skeleton's legs and hands (found once per skeleton)."""
     if skeleton not in _LIMBS:

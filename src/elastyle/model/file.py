@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from elastyle.core.body import at_size_of
+from elastyle.core.body import at_size_of, same_structure
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import smooth
@@ -71,8 +71,22 @@ class StyleModel:
         features = self.denormalise(self.autoencoder.decode(latents).astype(np.float64))
         return smooth(features, smooth_s * self.fps)
 
-    def check_clip(self, motion: Motion, what: str) -> None:
-        """A `SkeletonMismatchError` naming the clip, the joints that differ, and how to get a model for it."""
+    def check_clip(self, motion: Motion, what: str) -> str | None:
+        """None for a clip of the model's skeleton; a note for one of the same skeleton under other joint
+        names (`core.body.same_structure`: read by the hierarchy); otherwise a `SkeletonMismatchError`
+        naming the clip, the joints that differ, and how to get a model for it."""
+        if self.skeleton.same_as(motion.skeleton):
+            return None
+        if same_structure(self.skeleton, motion.skeleton):
+            renamed = next(
+                (theirs, ours)
+                for theirs, ours in zip(motion.skeleton.names, self.skeleton.names)
+                if theirs != ours
+            )
+            return (
+                f"note: {what}: joint names differ from the model's ({renamed[0]} for {renamed[1]}, ...), but "
+                "its hierarchy, limbs and rest pose are the model's: read joint by joint in that order"
+            )
         try:
             self.skeleton.check_same(motion.skeleton, "the model", what)
         except SkeletonMismatchError as error:
@@ -80,6 +94,7 @@ class StyleModel:
                 f"{error}; for this skeleton, train a model on its clips with 'elastyle train CLIPS -o "
                 "model.npz --recipe shipped --minutes 30' and pass it with --model model.npz"
             ) from None
+        return None  # check_same passed: the same names in the same hierarchy
 
 
 def save_model(path: str | os.PathLike[str], model: StyleModel, force: bool = False) -> None:

@@ -33,6 +33,12 @@ TURNING_COLUMN = 2  # the turning rate's column in `action_channels` (after forw
 SMOOTH_S = 0.1  # velocities are low-passed over about this long (sigma 0.4 of it), so noise does not count
 
 
+def action_width(skeleton: Skeleton) -> int:
+    """A, the number of `action_channels` a clip of this skeleton has."""
+    limbs = find_limbs(skeleton)
+    return 3 + 4 * len(limbs.hands) + len(limbs.ankles)
+
+
 def action_channels(motion: Motion) -> FloatArray:
     """(T, A) action descriptors of a clip; A = 3 + 4 hands + feet (see the module's table)."""
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)

@@ -21,6 +21,7 @@ from elastyle.errors import OutputError
 from elastyle.io.dataset import ClipRef
 from elastyle.io.files import megabytes_from_environment, write_bytes_atomic
 from elastyle.model.file import FORMAT_VERSION, StyleModel
+from elastyle.steps.action import action_width
 from elastyle.steps.library import StyleLibrary, prepare_style
 
 log = logging.getLogger(__name__)
@@ -53,8 +54,9 @@ def model_fingerprint(model: StyleModel) -> str:
     return digest.hexdigest()
 
 
-# 2: one BLAS thread; 3: action descriptors; 4: their ground by nearest sample; 5: clips at the model's size
-CACHE_VERSION = 5
+# 2: one BLAS thread; 3: action descriptors; 4: their ground by nearest sample; 5: clips at the model's size; 6: the root path
+# smoothed to the clip's ends (`core.smoothing.smooth_path`: the latents near its ends change)
+CACHE_VERSION = 6
 
 
 def library_key(
@@ -85,6 +87,10 @@ def load_library(
         try:
             with np.load(path, allow_pickle=False) as archive:
                 latents, actions = archive["latents"], archive["actions"]
+                if latents.shape[1:] != (model.config.latent_channels,) or actions.shape[1:] != (
+                    action_width(model.skeleton),
+                ):
+                    raise ValueError("written by another version")  # read as unreadable: encoded again
                 names = [str(n) for n in archive["names"]]
                 spans = _spans(archive["clip_starts"], len(latents))
                 backwards = [bool(b) for b in archive["backwards"]] if "backwards" in archive else None
