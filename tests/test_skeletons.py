@@ -325,3 +325,33 @@ def test_a_renamed_skeleton_whose_sides_or_rest_pose_differ_is_refused(walk: Mot
         clip = Motion(other, walk.rotations, walk.translations, walk.fps)
         with pytest.raises(SkeletonMismatchError, match="skeleton differs from the model"):
             transfer(clip, clip, model=load_model())
+
+
+def _without_toes(motion: Motion) -> Motion:
+    """The clip on its skeleton without toe joints, each foot ending in an End Site where its toe was."""
+    skeleton = motion.skeleton
+    toes = find_limbs(skeleton).toes.tolist()
+    kept = [j for j in range(skeleton.num_joints) if j not in toes]
+    index = {old: new for new, old in enumerate(kept)}
+    parents = np.array([-1 if skeleton.parents[j] < 0 else index[int(skeleton.parents[j])] for j in kept])
+    end_sites = skeleton.end_sites[kept].copy()
+    for toe in toes:
+        end_sites[index[int(skeleton.parents[toe])]] = skeleton.offsets[toe]
+    other = Skeleton(tuple(skeleton.names[j] for j in kept), parents, skeleton.offsets[kept], end_sites)
+    return Motion(other, motion.rotations[:, kept], motion.translations[:, kept], motion.fps)
+
+
+def test_feet_without_toe_joints_are_found_and_planted(walk: Motion) -> None:
+    from elastyle.eval.metrics import foot_skating_cm_s
+    from elastyle.steps.cleanup import plant_feet
+    from elastyle.steps.contacts import detect_contacts
+
+    toeless = _without_toes(walk)
+    limbs = find_limbs(toeless.skeleton)
+    feet = [toeless.skeleton.names.index(name) for name in ("Foot_L", "Foot_R")]
+    assert limbs.ankles.tolist() == feet == limbs.toes.tolist()  # the knee was taken for the ankle
+    assert (
+        np.mean(detect_contacts(toeless) == detect_contacts(walk)) > 0.9
+    )  # the ankles' contacts, as with toes
+    planted = plant_feet(toeless, 0.0)
+    assert foot_skating_cm_s(planted) < 0.5 * foot_skating_cm_s(toeless)  # the clean-up holds the ankles

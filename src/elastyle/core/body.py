@@ -172,6 +172,20 @@ def _deepest_descendant(skeleton: Skeleton, joint: int) -> int:
     return max(depth, key=lambda j: (depth[j], -j))
 
 
+def _ankle(skeleton: Skeleton, hip: int, toe: int) -> int:
+    """The ankle on the chain from a hip down to its deepest joint: the end of the later of the chain's two
+    longest bones (thigh and shin), which is the deepest joint itself on a leg without toe joints (its foot
+    an End Site); the toe's parent on a chain of two bones or fewer."""
+    chain = [toe]
+    while chain[-1] != hip:
+        chain.append(int(skeleton.parents[chain[-1]]))
+    chain = chain[::-1][1:]  # the joints below the hip, down to the toe: each one's offset is a bone
+    if len(chain) < 2:
+        return toe if skeleton.parents[toe] == hip else int(skeleton.parents[toe])
+    bones = np.linalg.norm(skeleton.offsets[chain], axis=1)
+    return chain[int(max(np.argsort(bones)[-2:]))]
+
+
 _LIMBS: weakref.WeakKeyDictionary[Skeleton, Limbs] = weakref.WeakKeyDictionary()
 
 
@@ -237,7 +251,7 @@ def _limbs_of(skeleton: Skeleton) -> Limbs:
     if not legs:  # no names say left and right: the mirror-image chains
         legs = _alike_pair(skeleton, list(skeleton.children(pelvis)))
     toes = [_deepest_descendant(skeleton, leg) for leg in legs]
-    ankles = [int(skeleton.parents[t]) if skeleton.parents[t] != leg else t for t, leg in zip(toes, legs)]
+    ankles = [_ankle(skeleton, leg, toe) for leg, toe in zip(legs, toes)]
     spine = [c for c in skeleton.children(pelvis) if partner[c] == c and c not in legs]
     hands: list[int] = []
     roots: list[int] = []
