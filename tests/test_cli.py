@@ -86,7 +86,7 @@ def test_batch_reports_a_bad_clip_and_finishes_the_others(
         f"elastyle: error: {bad}: skeleton differs from the model (only in the model: joint_Root, Hips, Spine, Chest, "
         "Neck, Head, Shoulder_L, UpperArm_L ...; only in this clip: pelvis, spine, LeftLeg, LeftFoot, RightLeg, RightFoot); "
         "for this skeleton, train a model on its clips with 'elastyle train CLIPS -o model.npz --recipe shipped "
-        "--minutes 30' and pass it with --model model.npz"
+        "--minutes 20' and pass it with --model model.npz"
     ]
     assert sorted(p.name for p in out.iterdir()) == [
         "dataset-2_walk_normal_005.bvh",

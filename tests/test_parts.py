@@ -46,6 +46,10 @@ def test_a_kept_part_is_the_content_itself(model, clips: dict[str, Motion]) -> N
     retimed = transfer(walk, proud, model=model, keep_part="arms")
     arms = np.concatenate([body_parts(walk.skeleton)[side] for side in ("left-arm", "right-arm")])
     assert retimed.motion.num_frames != walk.num_frames
+    for patch in retimed.explain["styles"][0]["patches"]:  # the explain file says so
+        assert (
+            patch["parts"]["left-arm"]["content_share"] == patch["parts"]["right-arm"]["content_share"] == 1.0
+        )
     assert np.abs(retimed.motion.rotations[:, arms] - walk.rotations[0, arms]).max() > 0.1
     # kept legs set the pace, as legs kept automatically do; every part kept is the content itself
     assert transfer(walk, proud, model=model, keep_part="legs").motion.num_frames == walk.num_frames

@@ -566,3 +566,13 @@ def test_an_unwritable_output_folder_is_refused_before_any_work(dataset_clips: l
         assert result.returncode == 1, result.stderr
         assert result.stderr.count("\n") == 1 and "transferred" not in result.stderr  # no transfer was run
         assert f"cannot write in {folder}" in result.stderr, result.stderr
+
+
+def test_the_take_number_is_the_number_ending_any_file_name() -> None:
+    from elastyle.io.dataset import ClipRef, is_held_out
+
+    assert is_held_out(ClipRef("my_rig/walk_proud_005.bvh")) and is_held_out(ClipRef("take10.glb"))
+    assert not is_held_out(ClipRef("my_rig/walk_proud_001.bvh")) and not is_held_out(ClipRef("take11.bvh"))
+    assert is_held_out(ClipRef("dataset-2_walk_normal_005.bvh"))  # the dataset's own names as before
+    names = [f"clip_{word}.bvh" for word in ("a", "b", "c", "d", "e", "f", "g", "h", "i", "j", "k", "l")]
+    assert 0 < sum(is_held_out(ClipRef(name)) for name in names) < len(names)  # no number: by checksum

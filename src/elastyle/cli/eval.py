@@ -96,7 +96,7 @@ def run_eval(args: argparse.Namespace) -> int:
         return 0
     if not (args.output and args.content and args.style):
         raise UsageError("give OUT.bvh --content C.bvh --style S.bvh, or --benchmark DATA")
-    from elastyle.core.body import in_units, no_legs_note
+    from elastyle.core.body import in_units, no_legs_note, same_structure
     from elastyle.eval.report import transfer_figures
     from elastyle.model.depth import clip_depth
 
@@ -112,11 +112,15 @@ def run_eval(args: argparse.Namespace) -> int:
         log.warning("%s", note)
     model = load_model(args.model)
     for name, motion in ((args.content, content), (args.style, style)):
-        if model.skeleton.same_as(motion.skeleton):  # what the model can represent of the inputs
-            error, warning = clip_depth(model, motion, name)
+        if model.skeleton.same_as(motion.skeleton) or same_structure(model.skeleton, motion.skeleton):
+            error, warning = clip_depth(model, motion, name)  # what the model can represent of the inputs
             figures[f"{'content' if motion is content else 'style'}_reconstruction_cm"] = error
             if warning is not None:
                 log.warning("%s", warning)
+        else:
+            log.info(
+                "note: %s: not the model's skeleton, so no reconstruction figure (--model names one)", name
+            )
     _print_figures(figures, args.json)
     return 0
 

@@ -17,8 +17,8 @@ def add_train_commands(commands: Any) -> None:
         "train",
         help="train an autoencoder on BVH clips (needs elastyle[train])",
         description="Train a model for your own skeleton on its BVH clips (every clip one skeleton; other "
-        "units and body sizes are brought to the first clip's). Takes numbered % 5 == 0 (or, without a "
-        "take number, one name in five by its checksum) are held out to measure the model and set its "
+        "units and body sizes are brought to the first clip's). Takes numbered % 5 == 0 (the number that ends "
+        "the file name; without one, one name in five by its checksum) are held out to measure the model and set its "
         "out-of-depth warning. MODEL.npz.ckpt is written as training goes; --resume continues it.",
     )
     trainer.add_argument("data", nargs="+", help="BVH files, folders, globs or zip archives")
@@ -210,8 +210,8 @@ def _command_calibrate(args: argparse.Namespace) -> int:
     held_out = [clip for clip in find_clips(args.data) if args.all or is_held_out(clip)]
     if not held_out:
         raise ElastyleError(
-            f"{', '.join(args.data)}: no held-out takes to measure (takes numbered % 5 == 0; --all measures "
-            "every clip given)"
+            f"{', '.join(args.data)}: no held-out takes to measure (takes numbered % 5 == 0 by the number "
+            "ending the file name; --all measures every clip given)"
         )
     chosen = held_out[:: max(1, len(held_out) // 300)]
     motions = [clip.read()[0] for clip in chosen]

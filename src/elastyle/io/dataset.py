@@ -184,10 +184,18 @@ def labelled_clips(
 HOLDOUT_EVERY = 5  # dataset takes numbered % 5 == 0 are held out: never trained on, used for every benchmark
 
 
+_TAKE_NUMBER = re.compile(r"(\d+)$")  # the number that ends a file name (without its extension): its take
+
+
 def is_held_out(clip: ClipRef, every: int = HOLDOUT_EVERY) -> bool:
-    """The one train / held-out split, by whole files: dataset takes numbered % every == 0; files of other
-    names by a stable hash of the file name."""
+    """The one train / held-out split, by whole files: takes numbered % every == 0, the take being the
+    number that ends the file name (`walk_proud_005.bvh`, `take10.bvh`); names without one by a stable hash
+    of the file name."""
     label = dataset_label(clip)
     if label is not None:
         return label.take % every == 0
+    stem = Path(clip.name).name.rsplit(".", 1)[0]
+    take = _TAKE_NUMBER.search(stem)
+    if take is not None:
+        return int(take.group(1)) % every == 0
     return zlib.crc32(Path(clip.name).name.encode()) % every == 0

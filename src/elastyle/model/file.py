@@ -92,7 +92,7 @@ class StyleModel:
         except SkeletonMismatchError as error:
             raise SkeletonMismatchError(
                 f"{error}; for this skeleton, train a model on its clips with 'elastyle train CLIPS -o "
-                "model.npz --recipe shipped --minutes 30' and pass it with --model model.npz"
+                "model.npz --recipe shipped --minutes 20' and pass it with --model model.npz"
             ) from None
         return None  # check_same passed: the same names in the same hierarchy
 

@@ -39,10 +39,12 @@ def explain(
             )
             fallback = _mean(track.fallback[span])
             content_share = _mean(track.keep["legs"][span]) if "legs" in track.keep else 0.0
+            if "legs" in config.kept_parts:
+                content_share = 1.0
             parts = {
                 part: {
                     "mismatch": round(float(mismatch[index]), 3),
-                    "content_share": round(_mean(track.keep[part][span]) if part in track.keep else 0.0, 3),
+                    "content_share": round(_part_share(track, part, span, config), 3),
                 }
                 | (
                     {
@@ -100,6 +102,14 @@ def explain(
         "styles": styles,
         "notes": notes,
     }
+
+
+def _part_share(track: StyleTrack, part: str, span: slice, config: TransferConfig) -> float:
+    """The share of the content's own action a part keeps over a patch's span of the grid: 1 for a part
+    the user keeps (`--keep-part`), else the track's automatic share."""
+    if part in config.kept_parts:
+        return 1.0
+    return _mean(track.keep[part][span]) if part in track.keep else 0.0
 
 
 def _mean(values: FloatArray) -> float:

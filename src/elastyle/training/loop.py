@@ -102,8 +102,8 @@ def train(
     if not training:
         training, held_out = held_out, []
     log.info(
-        "clips: %d for training, %d held out (takes numbered %% %d == 0; names without a take number, one in %d "
-        "by checksum)", len(training), len(held_out), config.holdout_every, config.holdout_every,
+        "clips: %d for training, %d held out (takes numbered %% %d == 0, the number ending the file name; names "
+        "without one, one in %d by checksum)", len(training), len(held_out), config.holdout_every, config.holdout_every,
     )  # fmt: skip
     fps = config.fps
     if fps is None:
@@ -244,7 +244,8 @@ def train(
         "held_out_loss": val_loss if math.isfinite(val_loss) else None,  # None: no clip was held out
         "training_clips": len(training),
         "held_out_clips": len(held_out),
-        "split": f"held out: takes numbered % {config.holdout_every} == 0 (other names: crc32 % {config.holdout_every} == 0)",
+        "split": f"held out: takes numbered % {config.holdout_every} == 0, the number ending the file name (other "
+        f"names: crc32 % {config.holdout_every} == 0)",
     }
     model = StyleModel(
         config.model,
