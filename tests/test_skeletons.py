@@ -355,3 +355,23 @@ def test_feet_without_toe_joints_are_found_and_planted(walk: Motion) -> None:
     )  # the ankles' contacts, as with toes
     planted = plant_feet(toeless, 0.0)
     assert foot_skating_cm_s(planted) < 0.5 * foot_skating_cm_s(toeless)  # the clean-up holds the ankles
+
+
+def test_end_sites_are_drawn_so_a_foot_without_a_toe_joint_shows(walk: Motion) -> None:
+    from elastyle.viewer.app import build_payload
+    from elastyle.viewer.render import drawn_points
+
+    toeless = _without_toes(walk)
+    points, pairs, sides = drawn_points(toeless)
+    num_joints = toeless.skeleton.num_joints
+    assert points.shape == (walk.num_frames, num_joints + 2, 3) and len(sides) == num_joints + 2
+    np.testing.assert_allclose(
+        points[:, num_joints:], walk.positions()[:, find_limbs(walk.skeleton).toes], atol=1e-3
+    )
+    feet = find_limbs(toeless.skeleton).ankles.tolist()
+    assert [tuple(p) for p in pairs[-2:]] == [(feet[0], num_joints), (feet[1], num_joints + 1)]
+    clip = build_payload([toeless], ["toeless"])["clips"][0]  # the viewer draws them too
+    assert (
+        len(clip["sides"]) == num_joints + 2
+        and len(clip["positions"]) == walk.num_frames * (num_joints + 2) * 3
+    )

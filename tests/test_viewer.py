@@ -116,11 +116,13 @@ def test_payload_holds_positions_bones_and_sides(three_channel_bvh: Path) -> Non
     payload = json.loads(json.dumps(build_payload([motion], ["tiny.bvh"])))
     clip = payload["clips"][0]
     assert clip["label"] == "tiny.bvh" and clip["num_frames"] == 3 and clip["pelvis"] == 0
-    assert clip["bones"] == [[0, 1], [0, 2], [2, 3], [0, 4], [4, 5]]
-    assert clip["sides"] == [0, 0, 1, 1, 2, 2]
-    positions = np.reshape(clip["positions"], (3, 6, 3))  # (T, J, 3)
-    np.testing.assert_allclose(positions, motion.positions(), atol=0.01)
-    assert clip["ground"] == pytest.approx(10.0) and payload["height"] == pytest.approx(20.0)
+    # the joints' bones, then one to each End Site (the spine's tip and the feet's, points 6 to 8)
+    assert clip["bones"] == [[0, 1], [0, 2], [2, 3], [0, 4], [4, 5], [1, 6], [3, 7], [5, 8]]
+    assert clip["sides"] == [0, 0, 1, 1, 2, 2, 0, 1, 2]
+    positions = np.reshape(clip["positions"], (3, 9, 3))  # (T, J + E, 3)
+    np.testing.assert_allclose(positions[:, :6], motion.positions(), atol=0.01)
+    assert clip["ground"] == pytest.approx(positions[..., 1].min(), abs=0.01)
+    assert payload["height"] == pytest.approx(positions[..., 1].max() - positions[..., 1].min(), abs=0.02)
     assert payload["explain"] is None
 
 

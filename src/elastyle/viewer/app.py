@@ -23,7 +23,7 @@ import numpy as np
 from elastyle.core.body import centimetres_per_unit
 from elastyle.core.motion import Motion
 from elastyle.errors import ElastyleError
-from elastyle.viewer.render import bones, grid_spacing, joint_sides
+from elastyle.viewer.render import drawn_points, grid_spacing
 
 log = logging.getLogger("elastyle")
 
@@ -51,7 +51,8 @@ def build_payload(
     clips = []
     height = 0.0
     for motion, label in zip(motions, labels):
-        positions = motion.positions() * centimetres_per_unit(motion.skeleton)  # (T, J, 3) cm, +Y up
+        points, pairs, sides = drawn_points(motion)  # the joints, then the End Sites
+        positions = points * centimetres_per_unit(motion.skeleton)  # (T, J + E, 3) cm, +Y up
         ground = float(positions[..., 1].min())
         height = max(height, float(positions[..., 1].max()) - ground)
         clips.append(
@@ -61,8 +62,8 @@ def build_payload(
                 "num_frames": motion.num_frames,
                 "pelvis": motion.skeleton.pelvis,
                 "ground": ground,
-                "bones": bones(motion.skeleton).tolist(),  # (B, 2) parent, child
-                "sides": joint_sides(motion.skeleton).tolist(),  # (J,) 0 centre, 1 left, 2 right
+                "bones": pairs.tolist(),  # (B, 2) parent, child
+                "sides": sides.tolist(),  # (J + E,) 0 centre, 1 left, 2 right
                 "positions": np.round(positions, 2).ravel().tolist(),  # (T * J * 3,)
                 **_contacts(motion),
             }

@@ -45,6 +45,21 @@ def bones(skeleton: Skeleton) -> IntArray:
     return np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
 
 
+def drawn_points(motion: Motion) -> tuple[FloatArray, IntArray, IntArray]:
+    """What a figure draws of a clip: points (T, J + E, 3) in file units, the joints' world positions then
+    the E End Sites below the pelvis (a foot without a toe joint, a head, a hand's tip), the bones between
+    them (B, 2) and each point's side colour index (J + E,) (`joint_sides`)."""
+    skeleton = motion.skeleton
+    rotations, positions = motion.world()  # (T, J, 3, 3), (T, J, 3)
+    lengths = np.linalg.norm(np.nan_to_num(skeleton.end_sites), axis=1)  # (J,), 0 where there is none
+    ends = [j for j in range(skeleton.num_joints) if j > skeleton.pelvis and lengths[j] > 0]
+    tips = positions[:, ends] + np.einsum("tjab,jb->tja", rotations[:, ends], skeleton.end_sites[ends])
+    tip_bones = [(joint, skeleton.num_joints + k) for k, joint in enumerate(ends)]
+    pairs = np.concatenate([bones(skeleton), np.asarray(tip_bones, dtype=np.int64).reshape(-1, 2)])
+    sides = joint_sides(skeleton)
+    return np.concatenate([positions, tips], axis=1), pairs, np.concatenate([sides, sides[ends]])
+
+
 def joint_sides(skeleton: Skeleton) -> IntArray:
     """(J,) 0 for centre joints, 1 for left, 2 for right (the colour index of `SIDE_COLOURS`)."""
     return np.choose(skeleton.sides() + 1, [2, 0, 1])
@@ -151,9 +166,11 @@ def render_clips(
     # 1. Sample every clip at the output frame times; shorter clips hold their last frame.
     num_frames = max(int(round((m.num_frames - 1) * fps / m.fps)) + 1 for m in motions)
     times_s = np.arange(num_frames) / fps  # (N,)
+    drawn = [drawn_points(m) for m in motions]  # each clip's points, bones and sides
     positions = [
-        sample_positions(m.positions() * centimetres_per_unit(m.skeleton), m.fps, times_s) for m in motions
-    ]  # each (N, J, 3) cm
+        sample_positions(points * centimetres_per_unit(m.skeleton), m.fps, times_s)
+        for m, (points, _, _) in zip(motions, drawn)
+    ]  # each (N, J + E, 3) cm
     grounds = [float(p[..., 1].min()) for p in positions]
     height = max(float(p[..., 1].max()) - g for p, g in zip(positions, grounds))
     height = height if height > 0 else 1.0
@@ -171,8 +188,8 @@ def render_clips(
         axes.set_ylim(-0.38 * height, 1.12 * height)
         grid = axes.add_collection(LineCollection([], colors=GRID_COLOUR, linewidths=1.0))
         (path_line,) = axes.plot([], [], color=PATH_COLOUR, linewidth=1.6)
-        pairs = bones(motion.skeleton)
-        colours = [SIDE_COLOURS[s] for s in joint_sides(motion.skeleton)[pairs[:, 1]]]
+        _, pairs, sides = drawn[index]
+        colours = [SIDE_COLOURS[s] for s in sides[pairs[:, 1]]]
         lines = axes.add_collection(LineCollection([], colors=colours, linewidths=2.6, capstyle="round"))
         path = positions[index][:, motion.skeleton.pelvis].copy()  # (N, 3) pelvis path, on the ground
         path[:, 1] = grounds[index]
