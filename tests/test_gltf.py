@@ -161,3 +161,8 @@ def test_units_does_not_apply_to_glb_clips_which_are_metres(three_channel_bvh: P
     read_back = read_bvh(target)[0]
     assert centimetres_per_unit(in_units(read_back, "cm").skeleton) == 100.0
     assert centimetres_per_unit(in_units(motion, "cm").skeleton) == 1.0  # a BVH takes the stated unit
+    document = pygltflib.GLTF2().load(str(target))  # an exporter's scale on a node: the unit is not known
+    document.nodes[0].scale = [0.01, 0.01, 0.01]
+    document.save(str(target))
+    assert read_bvh(target)[0].skeleton.unit_cm is None
+    assert centimetres_per_unit(in_units(read_bvh(target)[0], "cm").skeleton) == 1.0

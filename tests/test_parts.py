@@ -52,7 +52,13 @@ def test_a_kept_part_is_the_content_itself(model, clips: dict[str, Motion]) -> N
         )
     assert np.abs(retimed.motion.rotations[:, arms] - walk.rotations[0, arms]).max() > 0.1
     # kept legs set the pace, as legs kept automatically do; every part kept is the content itself
-    assert transfer(walk, proud, model=model, keep_part="legs").motion.num_frames == walk.num_frames
+    kept_legs = transfer(walk, clips["run_feminine_015"], model=model, keep_part="legs")
+    assert kept_legs.motion.num_frames == walk.num_frames
+    for patch in kept_legs.explain["styles"][0]["patches"]:  # not coloured by the style's statistics either
+        assert (
+            patch["parts"]["legs"]["content_share"] == 1.0
+            and patch["parts"]["legs"]["statistics_share"] == 0.0
+        )
     everything = transfer(walk, proud, model=model, keep_part="legs,spine,arms").motion
     np.testing.assert_array_equal(everything.positions(), walk.positions())
 

@@ -134,6 +134,7 @@ def test_usage_errors_exit_2(tmp_path: Path) -> None:
         (["transfer", "a.bvh", "-o", "x.bvh"], "--style"),
         (["transfer", "a.bvh", "--style", "a.bvh", "-o", "x.bvh", "--units", "km"], "--units"),
         (["frobnicate"], "frobnicate"),
+        (["transfer", "a.bvh", "--style", "a.bvh", "-o", "x.bvh", "--bogus"], "elastyle transfer --help"),
     ],
 )
 def test_usage_errors_are_one_line(args: list[str], named: str) -> None:
@@ -576,3 +577,17 @@ def test_the_take_number_is_the_number_ending_any_file_name() -> None:
     assert is_held_out(ClipRef("dataset-2_walk_normal_005.bvh"))  # the dataset's own names as before
     names = [f"clip_{word}.bvh" for word in ("a", "b", "c", "d", "e", "f", "g", "h", "i", "j", "k", "l")]
     assert 0 < sum(is_held_out(ClipRef(name)) for name in names) < len(names)  # no number: by checksum
+
+
+def test_one_number_ending_every_name_is_not_a_take() -> None:
+    from elastyle.io.dataset import ClipRef, split_held_out
+
+    dated = [
+        ClipRef(f"{motion}_20240115.bvh") for motion in ("walk", "run", "jump", "wave", "bow", "sit", "kick")
+    ]
+    training, held_out = split_held_out(dated)
+    assert training and held_out == [
+        c for c in dated if c not in training
+    ]  # by the names' hash, not all held out
+    numbered = [ClipRef(f"walk_{take:03d}.bvh") for take in range(1, 11)]
+    assert [c.name for c in split_held_out(numbered)[1]] == ["walk_005.bvh", "walk_010.bvh"]

@@ -375,3 +375,28 @@ def test_end_sites_are_drawn_so_a_foot_without_a_toe_joint_shows(walk: Motion) -
         len(clip["sides"]) == num_joints + 2
         and len(clip["positions"]) == walk.num_frames * (num_joints + 2) * 3
     )
+
+
+def _with_twist_joints(skeleton: Skeleton) -> Skeleton:
+    """The skeleton with a twist joint halfway along each thigh and shin (the bones' rest offsets split)."""
+    names, parents, offsets, index = [], [], [], {}
+    for joint, name in enumerate(skeleton.names):
+        parent = index.get(int(skeleton.parents[joint]), -1)
+        offset = skeleton.offsets[joint]
+        if name.startswith(("LowerLeg", "Foot")):  # the thigh's and the shin's far ends
+            names.append(f"{name}Twist")
+            parents.append(parent)
+            offsets.append(offset / 2)
+            parent, offset = len(names) - 1, offset / 2
+        index[joint] = len(names)
+        names.append(name)
+        parents.append(parent)
+        offsets.append(offset)
+    return Skeleton(tuple(names), np.array(parents), np.array(offsets))
+
+
+def test_ankles_with_twist_joints_and_without_toes(walk: Motion) -> None:
+    toeless = _without_toes(walk).skeleton
+    for skeleton in (_with_twist_joints(walk.skeleton), _with_twist_joints(toeless)):
+        ankles = [skeleton.names[j] for j in find_limbs(skeleton).ankles]
+        assert ankles == ["Foot_L", "Foot_R"], ankles

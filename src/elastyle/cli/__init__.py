@@ -68,6 +68,8 @@ def _command_convert(args: argparse.Namespace) -> int:
 class _OneLineParser(argparse.ArgumentParser):
     """Usage errors as one line, as every other error is (argparse prints the whole usage first)."""
 
+    commands: dict[str, argparse.ArgumentParser]  # the top-level parser's: each command's own parser
+
     def error(self, message: str) -> NoReturn:
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
@@ -75,7 +77,7 @@ class _OneLineParser(argparse.ArgumentParser):
 VERBOSE_HELP = "show tracebacks and debug logging"
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser() -> _OneLineParser:
     parser = _OneLineParser(prog="elastyle", description="Zero-shot motion style transfer for BVH clips.")
     parser.add_argument("--verbose", action="store_true", help=VERBOSE_HELP)
     commands = parser.add_subparsers(dest="command", required=True)
@@ -110,12 +112,15 @@ def build_parser() -> argparse.ArgumentParser:
     add_eval_commands(commands)
     for command in commands.choices.values():  # also after the command's name (the default: before it)
         command.add_argument("--verbose", action="store_true", default=argparse.SUPPRESS, help=VERBOSE_HELP)
+    parser.commands = dict(commands.choices)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:  # named by the command's own parser, so the error points to its --help
+        parser.commands[args.command].error(f"unrecognized arguments: {' '.join(unknown)}")
     logging.basicConfig(
         level=logging.DEBUG if args.verbose else logging.INFO, format="%(message)s", stream=sys.stderr
     )

@@ -79,7 +79,8 @@ def standing_height(skeleton: Skeleton) -> float:
     """About how tall the body stands, in the file's unit, from its bone lengths whatever its rest pose: the
     chain from the pelvis down each leg to its toe's end (their mean) plus the longest chain from the pelvis
     up the spine (arms left out), End Sites included; the rest pose's vertical extent where no legs are
-    found. (A rest pose need not stand: the dataset's lies along X, 99.8 cm tall, for a 165 cm body.)"""
+    found. (A rest pose need not stand: the dataset's lies along X, 99.8 cm tall, for a body 146 cm to its
+    head joint.)"""
     limbs = find_limbs(skeleton)
     if not len(limbs.toes):
         return skeleton.height()
@@ -134,7 +135,8 @@ def at_size_of(motion: Motion, reference: Skeleton) -> tuple[Motion, float]:
 
 def in_units(motion: Motion, unit: str | None) -> Motion:
     """The clip with its length unit stated (a key of `UNITS`), or as it is for None or where its file
-    format fixes the unit already (glTF: metres), so one --units for clips of both formats reads each right."""
+    format fixes the unit already (glTF: metres, where no node scales it), so one --units for clips of both
+    formats reads each right."""
     if unit is None or motion.skeleton.unit_cm is not None:
         return motion
     skeleton = replace(motion.skeleton, unit_cm=UNITS[unit])
@@ -172,10 +174,15 @@ def _deepest_descendant(skeleton: Skeleton, joint: int) -> int:
     return max(depth, key=lambda j: (depth[j], -j))
 
 
+# a leg chain's last bone at least this share of the bones above it (below the hip) is a shin, not a foot
+TOELESS_LAST_BONE = 0.25
+
+
 def _ankle(skeleton: Skeleton, hip: int, toe: int) -> int:
-    """The ankle on the chain from a hip down to its deepest joint: the end of the later of the chain's two
-    longest bones (thigh and shin), which is the deepest joint itself on a leg without toe joints (its foot
-    an End Site); the toe's parent on a chain of two bones or fewer."""
+    """The ankle on the chain from a hip down to its deepest joint (`toe`): the toe's parent, unless the
+    chain's last bone is as long as a shin (at least `TOELESS_LAST_BONE` of the bones above it: a foot is
+    about 0.15 of a thigh and shin, whole or split by twist joints), in which case the leg has no toe joint,
+    its foot an End Site, and the deepest joint is the ankle too; a leg of one bone is its own ankle."""
     chain = [toe]
     while chain[-1] != hip:
         chain.append(int(skeleton.parents[chain[-1]]))
@@ -183,7 +190,7 @@ def _ankle(skeleton: Skeleton, hip: int, toe: int) -> int:
     if len(chain) < 2:
         return toe if skeleton.parents[toe] == hip else int(skeleton.parents[toe])
     bones = np.linalg.norm(skeleton.offsets[chain], axis=1)
-    return chain[int(max(np.argsort(bones)[-2:]))]
+    return toe if bones[-1] >= TOELESS_LAST_BONE * bones[:-1].sum() else chain[-2]
 
 
 _LIMBS: weakref.WeakKeyDictionary[Skeleton, Limbs] = weakref.WeakKeyDictionary()

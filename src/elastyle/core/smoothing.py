@@ -31,10 +31,12 @@ def smooth(values: FloatArray, sigma_frames: float) -> FloatArray:
 
 def smooth_path(values: FloatArray, sigma_frames: float) -> FloatArray:
     """Gaussian low-pass along time (axis 0) of (T, ...) values that travel, such as a root's path or
-    heading: the clip is extended past each end by its point reflection about that end (2 x[0] - x[k]), so
-    steady travel stays where it is up to the last frame. (Held edges would pull the ends towards the
-    clip's middle by up to the distance travelled in about a sigma: a walk's path would start ahead of its
-    pelvis and end behind it.)"""
+    heading: the clip is extended past each end by its point reflection about that end (2 x[0] - x[k]; on a
+    clip shorter than the kernel's radius, reflected again and again), so steady travel stays where it is
+    up to the last frame. The result runs through the first and last values exactly (a step's sway there
+    is not smoothed away), and a clip shorter than the radius comes out near the straight line between its
+    ends. (Held edges would pull the ends towards the clip's middle by up to the distance travelled in
+    about a sigma: a walk's path would start ahead of its pelvis and end behind it.)"""
     if sigma_frames <= 0 or values.shape[0] < 2:
         return values.copy()
     radius = int(4.0 * sigma_frames + 0.5)

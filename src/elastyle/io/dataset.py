@@ -187,15 +187,26 @@ HOLDOUT_EVERY = 5  # dataset takes numbered % 5 == 0 are held out: never trained
 _TAKE_NUMBER = re.compile(r"(\d+)$")  # the number that ends a file name (without its extension): its take
 
 
-def is_held_out(clip: ClipRef, every: int = HOLDOUT_EVERY) -> bool:
+def is_held_out(clip: ClipRef, every: int = HOLDOUT_EVERY, numbered: bool = True) -> bool:
     """The one train / held-out split, by whole files: takes numbered % every == 0, the take being the
-    number that ends the file name (`walk_proud_005.bvh`, `take10.bvh`); names without one by a stable hash
-    of the file name."""
+    number that ends the file name (`walk_proud_005.bvh`, `take10.bvh`); names without one (or all names,
+    not `numbered`: where one number ends every name of a set) by a stable hash of the file name."""
     label = dataset_label(clip)
     if label is not None:
         return label.take % every == 0
     stem = Path(clip.name).name.rsplit(".", 1)[0]
-    take = _TAKE_NUMBER.search(stem)
+    take = _TAKE_NUMBER.search(stem) if numbered else None
     if take is not None:
         return int(take.group(1)) % every == 0
     return zlib.crc32(Path(clip.name).name.encode()) % every == 0
+
+
+def split_held_out(clips: list[ClipRef], every: int = HOLDOUT_EVERY) -> tuple[list[ClipRef], list[ClipRef]]:
+    """Training and held-out clips by `is_held_out`; where one number ends every name of several clips (a
+    date, a frame rate: not takes), by the names' hash instead; every clip trained on where none is left."""
+    held_out = [c for c in clips if is_held_out(c, every)]
+    if len(held_out) == len(clips) > 1:
+        held_out = [c for c in clips if is_held_out(c, every, numbered=False)]
+    chosen = {id(c) for c in held_out}
+    training = [c for c in clips if id(c) not in chosen]
+    return (training, held_out) if training else (held_out, [])

@@ -72,7 +72,10 @@ def parse_glb(data: bytes, name: str) -> Motion:
         leaves = [c for c in node.children or [] if c not in index]
         if leaves:
             end_sites[j] = document.nodes[leaves[0]].translation or [0.0, 0.0, 0.0]
-    skeleton = Skeleton(names, parents, offsets, end_sites, unit_cm=UNITS["m"])  # glTF's unit is the metre
+    # glTF's unit is the metre, unless a node scales it (an exporter's 0.01 on an armature over centimetres,
+    # which this reader does not apply): then the unit is guessed, or stated with --units, as for a BVH
+    scaled = any(node.scale is not None and list(node.scale) != [1.0, 1.0, 1.0] for node in document.nodes)
+    skeleton = Skeleton(names, parents, offsets, end_sites, unit_cm=None if scaled else UNITS["m"])
     return Motion(skeleton, rotations, translations, frame_rate(float(steps.mean())))
 
 

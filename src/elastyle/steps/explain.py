@@ -48,9 +48,9 @@ def explain(
                 }
                 | (
                     {
-                        "statistics_share": round(
-                            config.kept_statistics * _mean(track.other_action[part][span]), 3
-                        )
+                        "statistics_share": 0.0
+                        if part in config.kept_parts  # kept as the content performs it, uncoloured
+                        else round(config.kept_statistics * _mean(track.other_action[part][span]), 3)
                     }
                     if part in track.other_action
                     else {}

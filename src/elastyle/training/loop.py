@@ -26,7 +26,7 @@ from elastyle.core.mirror import mirror
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
 from elastyle.errors import ElastyleError, SkeletonMismatchError
-from elastyle.io.dataset import ClipRef, find_clips, is_held_out
+from elastyle.io.dataset import ClipRef, find_clips, split_held_out
 from elastyle.model.autoencoder import Autoencoder
 from elastyle.model.depth import DEFAULT_WARN_CM, calibrate
 from elastyle.model.features import FeatureSpec
@@ -97,10 +97,7 @@ def train(
     clips = [c for c in found.values() if not any(fnmatch.fnmatch(c.stem, p) for p in exclude)]
     if not clips:
         raise ElastyleError(f"{', '.join(map(str, data))}: every clip is excluded by {', '.join(exclude)}")
-    held_out = [c for c in clips if is_held_out(c, config.holdout_every)]
-    training = [c for c in clips if not is_held_out(c, config.holdout_every)]
-    if not training:
-        training, held_out = held_out, []
+    training, held_out = split_held_out(clips, config.holdout_every)
     log.info(
         "clips: %d for training, %d held out (takes numbered %% %d == 0, the number ending the file name; names "
         "without one, one in %d by checksum)", len(training), len(held_out), config.holdout_every, config.holdout_every,
