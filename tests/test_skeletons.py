@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -325,6 +326,10 @@ def test_a_renamed_skeleton_whose_sides_or_rest_pose_differ_is_refused(walk: Mot
         clip = Motion(other, walk.rotations, walk.translations, walk.fps)
         with pytest.raises(SkeletonMismatchError, match="skeleton differs from the model"):
             transfer(clip, clip, model=load_model())
+    # under the model's own names, another rest pose is refused too
+    turned_own = Motion(replace(walk.skeleton, offsets=turned), walk.rotations, walk.translations, walk.fps)
+    with pytest.raises(SkeletonMismatchError, match="another rest pose"):
+        transfer(turned_own, walk, model=load_model())
 
 
 def _without_toes(motion: Motion) -> Motion:

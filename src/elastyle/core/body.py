@@ -215,6 +215,12 @@ def same_structure(reference: Skeleton, other: Skeleton) -> bool:
     both_sided = (reference.sides() != 0) & (other.sides() != 0)
     if np.any(reference.sides()[both_sided] != other.sides()[both_sided]):
         return False
+    return same_rest_pose(reference, other)
+
+
+def same_rest_pose(reference: Skeleton, other: Skeleton) -> bool:
+    """Whether two skeletons of one hierarchy have every bone below the pelvis pointing the same way at rest,
+    within `BONE_DIRECTION_DEGREES` (bones of zero length in either are not compared)."""
     lengths = np.linalg.norm(reference.offsets, axis=1), np.linalg.norm(other.offsets, axis=1)
     bones = (lengths[0] > 1e-9 * lengths[0].max()) & (lengths[1] > 1e-9 * lengths[1].max())
     bones[: reference.pelvis + 1] = False  # the pelvis and above: placed by their position channels

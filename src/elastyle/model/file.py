@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from elastyle.core.body import at_size_of, same_structure
+from elastyle.core.body import at_size_of, same_rest_pose, same_structure
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import smooth
@@ -72,11 +72,17 @@ class StyleModel:
         return smooth(features, smooth_s * self.fps)
 
     def check_clip(self, motion: Motion, what: str) -> str | None:
-        """None for a clip of the model's skeleton; a note for one of the same skeleton under other joint
-        names (`core.body.same_structure`: read by the hierarchy); otherwise a `SkeletonMismatchError`
-        naming the clip, the joints that differ, and how to get a model for it."""
+        """None for a clip of the model's skeleton (its joints and rest pose); a note for one of the same
+        skeleton under other joint names (`core.body.same_structure`: read by the hierarchy); otherwise a
+        `SkeletonMismatchError` naming the clip, what differs, and how to get a model for it."""
         if self.skeleton.same_as(motion.skeleton):
-            return None
+            if same_rest_pose(self.skeleton, motion.skeleton):
+                return None
+            raise SkeletonMismatchError(
+                f"{what}: the model's joints, but another rest pose (its bones point other ways at rest, so its "
+                "rotations mean other poses): export it in the model's rest pose, or train a model on its clips "
+                "with 'elastyle train CLIPS -o model.npz --recipe shipped --minutes 20' and pass it with --model"
+            )
         if same_structure(self.skeleton, motion.skeleton):
             renamed = next(
                 (theirs, ours)
