@@ -31,7 +31,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from elastyle.core.body import UNITS, centimetres_per_unit, no_legs_note, standing_height
+from elastyle.core.body import guessed_unit_note, no_legs_note
 from elastyle.core.motion import Motion
 from elastyle.core.parts import body_parts, joint_set, parse_parts, part_joints
 from elastyle.core.resample import interpolate_rows
@@ -101,15 +101,12 @@ def transfer(
     notes: list[str] = []  # every note and warning printed, also kept in the explain record
     if renamed is not None:
         _say(notes, renamed)
-    if given.skeleton.unit_cm is None and centimetres_per_unit(given.skeleton) != UNITS["cm"]:
-        unit = next(name for name, cm in UNITS.items() if cm == centimetres_per_unit(given.skeleton))
-        _say(notes, (
-            f"note: {content_name}: length unit guessed as {unit} (the body stands about "
-            f"{standing_height(given.skeleton):.3g} units tall); --units states it"
-        ))  # fmt: skip
-    note = no_legs_note(content.skeleton, content_name) if config.cleanup else None
-    if note is not None:
-        _say(notes, note)
+    for note in (
+        guessed_unit_note(given.skeleton, content_name),
+        no_legs_note(content.skeleton, content_name) if config.cleanup else None,
+    ):
+        if note is not None:
+            _say(notes, note)
     fps = model.fps
     working = content.resample(fps)
     if working.num_frames < 2:

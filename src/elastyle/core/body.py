@@ -193,9 +193,6 @@ def _ankle(skeleton: Skeleton, hip: int, toe: int) -> int:
     return toe if bones[-1] >= TOELESS_LAST_BONE * bones[:-1].sum() else chain[-2]
 
 
-_LIMBS: weakref.WeakKeyDictionary[Skeleton, Limbs] = weakref.WeakKeyDictionary()
-
-
 BONE_DIRECTION_DEGREES = 20.0  # a renamed skeleton's bones point the same way at rest, within this
 
 
@@ -228,6 +225,9 @@ def same_rest_pose(reference: Skeleton, other: Skeleton) -> bool:
         np.sum(reference.offsets[bones] * other.offsets[bones], axis=1) / (lengths[0] * lengths[1])[bones]
     )
     return bool(np.all(cosines >= np.cos(np.radians(BONE_DIRECTION_DEGREES))))
+
+
+_LIMBS: weakref.WeakKeyDictionary[Skeleton, Limbs] = weakref.WeakKeyDictionary()
 
 
 def find_limbs(skeleton: Skeleton) -> Limbs:
@@ -293,6 +293,20 @@ def leg_length(skeleton: Skeleton, limbs: Limbs) -> float:
     if len(limbs.toes) == 0:
         return skeleton.height() / 2
     return float(np.mean(np.linalg.norm(rest[limbs.hips] - rest[limbs.ankles], axis=-1)))
+
+
+def guessed_unit_note(skeleton: Skeleton, name: str) -> str | None:
+    """A one-line note when the length unit is guessed (not stated) as other than centimetres."""
+    if skeleton.unit_cm is not None:
+        return None
+    unit_cm = centimetres_per_unit(skeleton)
+    if unit_cm == UNITS["cm"]:
+        return None
+    unit = next(unit for unit, cm in UNITS.items() if cm == unit_cm)
+    return (
+        f"note: {name}: length unit guessed as {unit} (the body stands about {standing_height(skeleton):.3g} "
+        "units tall); --units states it"
+    )
 
 
 def no_legs_note(skeleton: Skeleton, name: str) -> str | None:

@@ -38,9 +38,7 @@ def explain(
                 int((patch.content_start + patch.content_frames) / GRID_STEP),
             )
             fallback = _mean(track.fallback[span])
-            content_share = _mean(track.keep["legs"][span]) if "legs" in track.keep else 0.0
-            if "legs" in config.kept_parts:
-                content_share = 1.0
+            content_share = _part_share(track, "legs", span, config)
             parts = {
                 part: {
                     "mismatch": round(float(mismatch[index]), 3),

@@ -64,7 +64,7 @@ def build_payload(
                 "ground": ground,
                 "bones": pairs.tolist(),  # (B, 2) parent, child
                 "sides": sides.tolist(),  # (J + E,) 0 centre, 1 left, 2 right
-                "positions": np.round(positions, 2).ravel().tolist(),  # (T * J * 3,)
+                "positions": np.round(positions, 2).ravel().tolist(),  # (T * (J + E) * 3,)
                 **_contacts(motion),
             }
         )
