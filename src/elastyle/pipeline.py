@@ -224,18 +224,25 @@ def transfer(
         target = keep_target(content_at, styled_at, reference, keep, kept, strength_out, coloured_at, colour)
         motion = blend_by_strength(motion, target, keep)
         legs = body_parts(content.skeleton).get("legs", np.zeros(0, dtype=np.int64))
-        if coloured_at is not None and config.cleanup:  # the coloured legs' feet planted too
+        automatic_legs = joint_set(set(legs.tolist()) & set(automatic.tolist()))
+        if config.cleanup and (coloured_at is not None or np.any(keep[:, automatic_legs] > 0)):
             # where the legs keep the content's stepping, the content's own contacts hold as well, and its
             # feet's clearance of the ground: the statistics change how the legs move, not when the feet
             # land nor whether a swinging foot skims the floor
             kept_legs = np.max(keep[:, legs], axis=1) > 0.5  # (N,)
             also, foot_floor = held_footing(content_at, kept_legs)  # (N, F), (N, F, 2)
-            motion = blend_by_strength(motion, _clean_up(motion, config, also, foot_floor), clean_share)
+            if coloured_at is not None:  # coloured legs: the whole clean-up again
+                motion = blend_by_strength(motion, _clean_up(motion, config, also, foot_floor), clean_share)
+            else:
+                # legs that keep the content's action (a turn matched against straight windows) mix two
+                # gaits, whose stance feet slide: pinned again as far as they keep it, the root left where
+                # the clean-up put it (moving it again would shift the whole path), and kept above the ground
+                pinned = plant_feet(motion, 0.0, also, foot_floor)
+                motion = blend_by_strength(
+                    motion, pinned, np.max(keep[:, automatic_legs], axis=1) * clean_share
+                )
+                motion = blend_by_strength(motion, lift_to_ground(motion), (keep > 0) * clean_share[:, None])
             motion = motion.with_joints(content_at, kept, translations=True)  # kept parts stay the content's
-        elif config.cleanup and np.any(keep[:, joint_set(set(legs.tolist()) & set(automatic.tolist()))] > 0):
-            # legs keeping the content's action stay above the output's ground
-            motion = blend_by_strength(motion, lift_to_ground(motion), (keep > 0) * clean_share[:, None])
-            motion = motion.with_joints(content_at, kept, translations=True)
     _check_finite(motion, "foot clean-up" if config.cleanup else "decoding", content_name)
     record = explain(tracks, libraries, content_time, fps, config)
     record["notes"] = [*notes, *record["notes"]]
