@@ -510,6 +510,21 @@ def test_train_gives_one_line_for_short_clips_and_foreign_checkpoints(tmp_path: 
     assert result.stderr.count("elastyle: error:") == 1 and "Traceback" not in result.stderr
 
 
+def test_train_names_a_broken_clip_among_many(tmp_path: Path) -> None:
+    """More than 8 clips are read in parallel: a broken one is still named in one line."""
+    pytest.importorskip("torch", reason='training is an extra: pip install "elastyle[train]"')
+    for take in range(1, 10):
+        (tmp_path / f"clip_{take:03d}.bvh").write_text(GOOD)
+    broken = tmp_path / "clip_011.bvh"  # a training take (numbers % 5 == 0 are held out)
+    broken.write_text(GOOD.rstrip("\n").rsplit(" ", 3)[0] + "\n")  # its last row cut short
+    result = _cli("train", str(tmp_path), "-o", str(tmp_path / "m.npz"), "--steps", "1", "--kernel", "1")
+    assert result.returncode == 1 and f"{broken}:" in result.stderr and "values" in result.stderr, (
+        result.stderr
+    )
+    assert result.stderr.count("elastyle: error:") == 1 and "internal error" not in result.stderr
+    assert not (tmp_path / "m.npz").exists()
+
+
 def test_calibrate_measures_held_out_takes_or_every_clip_given(
     tmp_path: Path, dataset_clips: list[ClipRef]
 ) -> None:

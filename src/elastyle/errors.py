@@ -20,6 +20,11 @@ class BvhError(ElastyleError):
         self.line = line
         self.problem = problem
 
+    def __reduce__(self) -> tuple[type[BvhError], tuple[str, str, int | None]]:
+        """Pickled by its own arguments, so an error raised where clips are read in parallel (training)
+        reaches the caller as itself (the default pickling passes only the message and fails there)."""
+        return (type(self), (self.path, self.problem, self.line))
+
 
 class SkeletonMismatchError(ElastyleError):
     """Two clips (or a clip and a model) whose skeletons differ."""
