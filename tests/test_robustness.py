@@ -525,6 +525,20 @@ def test_train_names_a_broken_clip_among_many(tmp_path: Path) -> None:
     assert not (tmp_path / "m.npz").exists()
 
 
+def test_train_refuses_clips_of_one_skeleton_in_two_rest_poses(tmp_path: Path) -> None:
+    pytest.importorskip("torch", reason='training is an extra: pip install "elastyle[train]"')
+    (tmp_path / "clip_001.bvh").write_text(GOOD)
+    other = tmp_path / "clip_002.bvh"  # the same joints, the spine pointing forward at rest
+    other.write_text(
+        GOOD.replace("JOINT spine\n  {\n    OFFSET 0 10 0", "JOINT spine\n  {\n    OFFSET 0 0 10")
+    )
+    assert other.read_text() != GOOD
+    result = _cli("train", str(tmp_path), "-o", str(tmp_path / "m.npz"), "--steps", "1", "--kernel", "1")
+    assert result.returncode == 1 and f"{other}: the joints of" in result.stderr, result.stderr
+    assert "another rest pose" in result.stderr and result.stderr.count("elastyle: error:") == 1
+    assert not (tmp_path / "m.npz").exists()
+
+
 def test_calibrate_measures_held_out_takes_or_every_clip_given(
     tmp_path: Path, dataset_clips: list[ClipRef]
 ) -> None:

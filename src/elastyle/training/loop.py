@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from elastyle.core.body import at_size_of
+from elastyle.core.body import at_size_of, same_rest_pose
 from elastyle.core.mirror import mirror
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
@@ -51,9 +51,23 @@ def load_motions(clips: Sequence[ClipRef], fps: float | None, workers: int = 2) 
             motions = list(pool.map(_read_resampled, tasks, chunksize=16))
     else:
         motions = [_read_resampled(t) for t in tasks]
-    for clip, motion in zip(clips, motions):
-        motions[0].skeleton.check_same(motion.skeleton, clips[0].name, clip.name)
+    if motions:
+        check_one_skeleton(motions[0].skeleton, clips[0].name, clips, motions)
     return motions
+
+
+def check_one_skeleton(
+    skeleton: Skeleton, reference: str, clips: Sequence[ClipRef], motions: Sequence[Motion]
+) -> None:
+    """Every clip on `skeleton`, that of clip `reference`: its joints and its rest pose (a model learns
+    rotations from one rest pose); a one-line `SkeletonMismatchError` naming the first clip that differs."""
+    for clip, motion in zip(clips, motions):
+        skeleton.check_same(motion.skeleton, reference, clip.name)
+        if not same_rest_pose(skeleton, motion.skeleton):
+            raise SkeletonMismatchError(
+                f"{clip.name}: the joints of {reference}, but another rest pose (its bones point other ways at "
+                "rest, so its rotations mean other poses): export every training clip in one rest pose"
+            )
 
 
 def at_one_size(motions: list[Motion], reference: Skeleton) -> list[Motion]:
@@ -108,8 +122,7 @@ def train(
     train_motions = load_motions(training, fps)
     val_motions = load_motions(held_out, fps) if held_out else []
     skeleton = train_motions[0].skeleton
-    for clip, motion in zip(held_out, val_motions):
-        skeleton.check_same(motion.skeleton, training[0].name, clip.name)
+    check_one_skeleton(skeleton, training[0].name, held_out, val_motions)
     train_motions, val_motions = at_one_size(train_motions, skeleton), at_one_size(val_motions, skeleton)
     # a clip shorter than the convolution holds no window the model can learn from
     kernel = config.model.kernel_frames
