@@ -57,7 +57,7 @@ def _command_convert(args: argparse.Namespace) -> int:
     motion = in_units(motion, args.units)
     if args.fps is not None:
         motion = motion.resample(args.fps)
-        layout = type(layout)(layout.channels, 1.0 / args.fps)
+        layout = layout._replace(frame_time_s=1.0 / args.fps)
     if args.mirror:
         motion = mirror(motion)
     write_clip(args.output, motion, layout, force=args.force, inputs=(args.input,))
@@ -75,11 +75,18 @@ class _OneLineParser(argparse.ArgumentParser):
 
 
 VERBOSE_HELP = "show tracebacks and debug logging"
+UP_HELP = (
+    "the BVH files' up axis: auto (default: +Z for a clip whose body clearly stands along +Z, else +Y), y "
+    "or z; clips are worked on with +Y up and written back standing as their files do"
+)
 
 
 def build_parser() -> _OneLineParser:
+    from elastyle.io.dataset import READ_UPS
+
     parser = _OneLineParser(prog="elastyle", description="Zero-shot motion style transfer for BVH clips.")
     parser.add_argument("--verbose", action="store_true", help=VERBOSE_HELP)
+    parser.add_argument("--up", choices=READ_UPS, default="auto", help=UP_HELP)
     commands = parser.add_subparsers(dest="command", required=True)
 
     info = commands.add_parser("info", help="joints, channels, frames, fps, duration and height of clips")
@@ -112,6 +119,7 @@ def build_parser() -> _OneLineParser:
     add_eval_commands(commands)
     for command in commands.choices.values():  # also after the command's name (the default: before it)
         command.add_argument("--verbose", action="store_true", default=argparse.SUPPRESS, help=VERBOSE_HELP)
+        command.add_argument("--up", choices=READ_UPS, default=argparse.SUPPRESS, help=UP_HELP)
     parser.commands = dict(commands.choices)
     return parser
 
@@ -124,6 +132,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     logging.basicConfig(
         level=logging.DEBUG if args.verbose else logging.INFO, format="%(message)s", stream=sys.stderr
     )
+    from elastyle.io.dataset import set_read_up
+
+    set_read_up(args.up)
     try:
         return int(args.run(args) or 0)
     except ElastyleError as error:

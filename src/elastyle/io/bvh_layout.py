@@ -16,10 +16,13 @@ class BvhLayout(NamedTuple):
 
     channels: per joint (J,), the channel names in file order (3 or 6 of them, or none).
     frame_time_s: the file's frame time, seconds.
+    up: the file's up axis ("y" or "z", `core.up`): a clip read from a file standing along +Z is turned to
+        +Y up, and turned back where it is written in this layout.
     """
 
     channels: tuple[tuple[str, ...], ...]
     frame_time_s: float
+    up: str = "y"
 
     @staticmethod
     def default(skeleton: Skeleton, fps: float, moving: Sequence[int] = ()) -> BvhLayout:

@@ -9,6 +9,7 @@ import numpy as np
 
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
+from elastyle.core.up import turned_back
 from elastyle.errors import BvhError
 from elastyle.io.bvh_layout import BvhLayout, channel_columns
 from elastyle.io.euler import rotvec_to_euler
@@ -17,9 +18,10 @@ from elastyle.types import FloatArray
 
 
 def bvh_text(motion: Motion, layout: BvhLayout | None = None) -> str:
-    """The BVH text of a clip, in `layout` (hierarchy, channel orders, End Sites) when given."""
+    """The BVH text of a clip, in `layout` (hierarchy, channel orders, End Sites, up axis) when given."""
     skeleton = motion.skeleton
     layout = layout or BvhLayout.default(skeleton, motion.fps)
+    motion = turned_back(motion, layout.up)  # as its file stands (clips are read turned to +Y up)
     if len(layout.channels) != skeleton.num_joints:
         raise ValueError(f"layout has {len(layout.channels)} joints, the clip {skeleton.num_joints}")
     out = io.StringIO()

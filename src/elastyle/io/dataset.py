@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import fnmatch
 import glob
+import logging
 import os
 import re
 import zipfile
@@ -19,10 +20,13 @@ from typing import NamedTuple
 import numpy as np
 
 from elastyle.core.motion import Motion
+from elastyle.core.up import UP_AXES, standing_axis, turned_up
 from elastyle.errors import BvhError, DatasetError
 from elastyle.io.bvh_layout import BvhLayout
 from elastyle.io.bvh_read import parse_bvh, read_bvh, read_input
 from elastyle.io.files import input_problem
+
+log = logging.getLogger(__name__)
 
 DATA_ENVIRONMENT_VARIABLE = "ELASTYLE_DATA"
 PUBLIC_DATASET_HINT = (
@@ -43,17 +47,27 @@ class ClipRef(NamedTuple):
     def stem(self) -> str:
         return Path(self.member or self.name).stem
 
-    def read(self) -> tuple[Motion, BvhLayout]:
-        """The clip and its layout: BVH, or binary glTF for a `.glb` name (with BVH's default layout)."""
+    def read(self, up: str | None = None) -> tuple[Motion, BvhLayout]:
+        """The clip, standing along +Y, and its layout: BVH, or binary glTF for a `.glb` name (with BVH's
+        default layout; glTF is +Y up).
+
+        up: the BVH file's up axis, "y" or "z", or "auto" for the axis its body stands along
+        (`core.up.standing_axis`); None: as `set_read_up` last said ("auto" unless told otherwise). A clip
+        read with +Z up is turned to +Y up, and its layout turns it back where it is written."""
         if Path(self.member or self.name).suffix.lower() == ".glb":
             from elastyle.io.gltf_read import parse_glb
 
             motion = parse_glb(self.data(), self.name)
             moving = np.flatnonzero(np.ptp(motion.translations, axis=0).max(axis=1) > 0).tolist()
             return motion, BvhLayout.default(motion.skeleton, motion.fps, moving)
-        if self.archive is None:
-            return read_bvh(self.name)
-        return parse_bvh(self.data(), self.name)
+        motion, layout = read_bvh(self.name) if self.archive is None else parse_bvh(self.data(), self.name)
+        up = up or _READ_UP[0]
+        axis = standing_axis(motion) if up == "auto" else up
+        if axis == "y":
+            return motion, layout
+        if up == "auto":
+            _note_turned(self.name)
+        return turned_up(motion, axis), layout._replace(up=axis)
 
     def data(self) -> bytes:
         """The file's raw bytes."""
@@ -144,12 +158,42 @@ def find_clips(specs: Iterable[str | os.PathLike[str]], pattern: str | None = No
     return clips
 
 
-def read_clip(spec: str | os.PathLike[str]) -> tuple[Motion, BvhLayout]:
-    """Read one clip named by a file path or a path inside a zip archive."""
+def read_clip(spec: str | os.PathLike[str], up: str | None = None) -> tuple[Motion, BvhLayout]:
+    """Read one clip named by a file path or a path inside a zip archive (up: `ClipRef.read`)."""
     archive = _split_archive(str(spec))
     if archive is not None and archive[1]:
-        return ClipRef(str(spec), archive[0], archive[1]).read()
-    return ClipRef(str(spec)).read()
+        return ClipRef(str(spec), archive[0], archive[1]).read(up)
+    return ClipRef(str(spec)).read(up)
+
+
+READ_UPS = ("auto", *UP_AXES)
+_READ_UP = ["auto"]  # how clips find their up axis (`set_read_up`): the command line's --up
+_TURNED_NOTED: list[str] = []  # the first clip read turned, noted once per process
+
+
+def set_read_up(up: str) -> None:
+    """How every clip read from now on finds its BVH file's up axis (`ClipRef.read`): "auto", "y" or "z"
+    (the command line's --up; worker processes forked after this inherit it)."""
+    if up not in READ_UPS:
+        raise ValueError(f"up must be one of {', '.join(READ_UPS)}, got {up!r}")
+    _READ_UP[0] = up
+
+
+def read_up() -> str:
+    """How clips find their up axis now (`set_read_up`)."""
+    return _READ_UP[0]
+
+
+def _note_turned(name: str) -> None:
+    """One note per process for clips found standing along +Z (a training set may hold thousands)."""
+    if _TURNED_NOTED:
+        log.debug("%s: read with +Z up", name)
+        return
+    _TURNED_NOTED.append(name)
+    log.warning(
+        "note: %s stands along +Z: read with +Z up (as any other such clip), and written back so; "
+        "--up y reads clips as +Y up", name,
+    )  # fmt: skip
 
 
 _BANDAI_NAME = re.compile(r"dataset-\d+_(?P<content>[a-z-]+)_(?P<style>[a-z]+)_(?P<take>\d+)$")

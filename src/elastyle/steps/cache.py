@@ -18,7 +18,7 @@ import numpy as np
 
 from elastyle.core.motion import Motion
 from elastyle.errors import OutputError
-from elastyle.io.dataset import ClipRef
+from elastyle.io.dataset import ClipRef, read_up
 from elastyle.io.files import megabytes_from_environment, write_bytes_atomic
 from elastyle.model.file import FORMAT_VERSION, StyleModel
 from elastyle.steps.action import action_width
@@ -55,8 +55,9 @@ def model_fingerprint(model: StyleModel) -> str:
 
 
 # 2: one BLAS thread; 3: action descriptors; 4: their ground by nearest sample; 5: clips at the model's size; 6: the root path
-# smoothed to the clip's ends (`core.smoothing.smooth_path`: the latents near its ends change)
-CACHE_VERSION = 6
+# smoothed to the clip's ends (`core.smoothing.smooth_path`: the latents near its ends change); 7: clips standing
+# along +Z read turned to +Y up (`core.up`), the reading's --up in the key
+CACHE_VERSION = 7
 
 
 def library_key(
@@ -64,7 +65,7 @@ def library_key(
 ) -> str:
     reverse = ":backwards" if reverse_style else ""  # libraries without reversed clips keep their keys
     digest = hashlib.sha256(
-        f"v{FORMAT_VERSION}.{CACHE_VERSION}:{model_fingerprint(model)}:{mirror_style}{reverse}".encode()
+        f"v{FORMAT_VERSION}.{CACHE_VERSION}:{model_fingerprint(model)}:{mirror_style}{reverse}:up-{read_up()}".encode()
     )
     for clip in clips:
         digest.update(clip.name.encode())
