@@ -38,6 +38,7 @@ class Job(NamedTuple):
     second_weight: Schedule
     part_styles: dict[str, StyleLibrary]  # body part names -> the library whose manner they take
     units: str | None  # the content clips' length unit as stated (`core.body.UNITS`), None: guessed
+    up: str  # how the content clips' up axis is read (`io.dataset.ClipRef.read`): workers elsewhere know it too
     force: bool
     explain: str | None
     inputs: tuple[str, ...]  # what the command reads: never written
@@ -63,7 +64,7 @@ def _transfer(job: Job, content_spec: str, target: Path) -> tuple[bytes, dict[st
     from elastyle.io.dataset import read_clip
     from elastyle.pipeline import transfer
 
-    motion, layout = read_clip(content_spec)
+    motion, layout = read_clip(content_spec, job.up)
     motion = in_units(motion, job.units)
     result = transfer(
         motion, job.style, job.config, model=job.model, second_style=job.second,

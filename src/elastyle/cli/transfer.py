@@ -12,7 +12,7 @@ from elastyle.cli.batch import Job, make_output_folder, require_dask, run_local,
 from elastyle.cli.options import add_config_flags, add_units_flag, config_from_args
 from elastyle.core.motion import Motion
 from elastyle.errors import BvhError, OutputError, SkeletonMismatchError, UsageError
-from elastyle.io.dataset import ClipRef
+from elastyle.io.dataset import ClipRef, read_up
 from elastyle.steps.config import TransferConfig
 
 if TYPE_CHECKING:
@@ -217,8 +217,8 @@ def run_transfer(args: argparse.Namespace) -> int:
 
     part_styles = {names: library([spec]) for names, spec in _style_parts(args)}
     job = Job(
-        style, model, config, second, second_weight, part_styles, args.units, args.force, args.explain,
-        _inputs(args),
+        style, model, config, second, second_weight, part_styles, args.units, read_up(), args.force,
+        args.explain, _inputs(args),
     )  # fmt: skip
     if not contents:  # every output exists and --skip-existing leaves them
         return 0
