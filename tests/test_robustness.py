@@ -52,6 +52,12 @@ BAD_FILES: list[tuple[str, bytes, str]] = [
     ("unknown-channel", GOOD.replace("Xposition", "Wposition").encode(), "unknown channel"),
     ("duplicate-joint", GOOD.replace("JOINT RightLeg", "JOINT LeftLeg").encode(), "duplicate joint name"),
     ("zero-frames", GOOD.replace("Frames: 3", "Frames: 0").encode(), "no frames"),
+    ("negative-frames", GOOD.replace("Frames: 3", "Frames: -5").encode(), "no frames (Frames: -5)"),
+    (
+        "frames-undercounted",
+        GOOD.replace("Frames: 3", "Frames: 2").encode(),
+        "more rows than the Frames line",
+    ),
     (
         "bad-frame-time",
         GOOD.replace("Frame Time: 0.0083333", "Frame Time: 0").encode(),

@@ -208,7 +208,7 @@ def _parse_motion(reader: _Lines, num_channels: int) -> tuple[FloatArray, float]
     except ValueError:
         raise BvhError(path, f"frame count is not an integer: {tokens[1][:30]!r}", line) from None
     if num_frames <= 0:
-        raise BvhError(path, "no frames (Frames: 0)", line)
+        raise BvhError(path, f"no frames (Frames: {tokens[1]})", line)
     tokens, line = reader.next_tokens("Frame Time:")
     if [t.lower() for t in tokens[:2]] != ["frame", "time:"] or len(tokens) != 3:
         raise BvhError(path, "expected 'Frame Time: seconds'", line)
@@ -257,9 +257,8 @@ def _raise_row_problem(
         problem = _row_problem(row, num_channels)
         if problem:
             raise BvhError(path, problem, first_line + row_index)
-    raise BvhError(
-        path, f"'Frames: {num_frames}' but {len(rows)} rows of frame data (truncated?)", first_line
-    )
+    hint = "truncated?" if len(rows) < num_frames else "more rows than the Frames line counts"
+    raise BvhError(path, f"'Frames: {num_frames}' but {len(rows)} rows of frame data ({hint})", first_line)
 
 
 def _values_token_by_token(path: str, rows: list[str], first_line: int, num_channels: int) -> FloatArray:

@@ -112,7 +112,9 @@ def prepare_style(
             try:
                 clips.append((name, True, mirror(motion)))
             except SkeletonMismatchError:
-                log.info("%s: no left/right pairs, style used without its mirror", name)
+                log.info(
+                    "note: %s: no left/right joint pairs found, so the style is used without its mirror", name
+                )
     backwards = [False] * len(clips)
     if reverse_style:
         clips += [(name, mirrored, played_backwards(m)) for name, mirrored, m in clips]
