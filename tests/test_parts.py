@@ -25,7 +25,13 @@ pytestmark = pytest.mark.slow
 
 @pytest.fixture(scope="module")
 def clips(dataset_clips: list[ClipRef]) -> dict[str, Motion]:
-    names = ("walk_normal_005", "walk_masculine_010", "run_elderly_025", "run_feminine_015")
+    names = (
+        "walk_normal_005",
+        "walk_masculine_010",
+        "run_elderly_025",
+        "run_feminine_015",
+        "wave-left-hand_normal_005",
+    )
     return {name: clip_named(dataset_clips, f"dataset-2_{name}").read()[0] for name in names}
 
 
@@ -347,3 +353,29 @@ def test_a_backward_walk_takes_the_style_played_backwards(model, clips: dict[str
     assert all(p["style_backwards"] for p in patches) and {p["mode"] for p in patches} == {"swap"}
     steps = [cadence_steps_s(m) for m in (back, styled.motion, style)]
     assert abs(steps[1] - steps[2]) < 0.5 * abs(steps[0] - steps[2])  # the style's timing, walking backwards
+
+
+def test_unnamed_sides_on_a_rest_pose_that_does_not_stand_take_the_first_listed_arm_for_the_left(
+    model, clips: dict[str, Motion], caplog
+) -> None:  # type: ignore[no-untyped-def]
+    """The dataset's rig keeps its bones along each joint's X axis at rest (legs along +X and -X): with its
+    joints renamed bone00, bone01 ..., no name and no rest pose tells the sides. The arm its file lists first
+    (the dataset's left, as Mixamo's and CMU's rigs list it) is taken for the left one, and a side named
+    on the command line gets a warning."""
+    from dataclasses import replace
+
+    from elastyle.core.parts import rest_pose_stands, sides_guessed
+
+    wave = clips["wave-left-hand_normal_005"]
+    generic = replace(wave.skeleton, names=tuple(f"bone{j:02d}" for j in range(wave.skeleton.num_joints)))
+    unnamed = Motion(generic, wave.rotations, wave.translations, wave.fps)
+    assert not rest_pose_stands(wave.skeleton) and not sides_guessed(wave.skeleton) and sides_guessed(generic)
+    named_left = body_parts(wave.skeleton)["left-arm"]
+    assert np.array_equal(body_parts(generic)["left-arm"], named_left)
+    with caplog.at_level("WARNING"):
+        result = transfer(unnamed, clips["walk_masculine_010"], model=model, keep_part="left-arm")
+    assert "no joint names say left or right" in caplog.text
+    assert any("no joint names say left or right" in note for note in result.explain["notes"])
+    assert np.array_equal(
+        result.motion.rotations[:, named_left], wave.rotations[: result.motion.num_frames, named_left]
+    )

@@ -33,7 +33,7 @@ import numpy as np
 
 from elastyle.core.body import guessed_unit_note, no_legs_note
 from elastyle.core.motion import Motion
-from elastyle.core.parts import body_parts, joint_set, parse_parts, part_joints
+from elastyle.core.parts import body_parts, joint_set, parse_parts, part_joints, sides_guessed
 from elastyle.core.resample import interpolate_rows
 from elastyle.core.threads import one_blas_thread
 from elastyle.errors import ClipTooShortError, ConfigError, ResultError
@@ -126,6 +126,16 @@ def transfer(
             as_library(model, second_style, second_style_names, config.mirror_style, config.reverse_style)
         )
     kept = part_joints(content.skeleton, config.kept_parts, content_name)  # (K,) joints kept as performed
+    named_parts = {
+        *config.kept_parts,
+        *(p for n in (part_styles or {}) for p in parse_parts(n, "--style-part")),
+    }
+    sided = sorted(named_parts & {"left-arm", "right-arm"})
+    if sided and sides_guessed(content.skeleton):
+        _say(notes, (
+            f"warning: {content_name}: no joint names say left or right and its rest pose does not stand, so "
+            f"the arm its file lists first is taken for the left one ({sided[0]} may name the other)"
+        ))  # fmt: skip
     by_part = [
         (part_joints(content.skeleton, parse_parts(names, "--style-part"), content_name),
          as_library(model, part_style, None, config.mirror_style, config.reverse_style))

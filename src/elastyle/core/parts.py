@@ -10,8 +10,8 @@ belongs to exactly one part:
     right-arm   the same on the right
 
 `arms` names both arms at once. On a skeleton with no side names, which arm is the left one comes from
-the rest pose (up from the pelvis to the spine, forward from ankle to toe); a rest pose that is not upright
-may swap them.
+the rest pose (up from the pelvis to the spine, forward from ankle to toe) where it stands; where it does
+not (`rest_pose_stands`), it is a guess, which `sides_guessed` says.
 """
 
 from __future__ import annotations
@@ -51,10 +51,38 @@ def body_parts(skeleton: Skeleton) -> dict[str, IntArray]:
     if len(roots) == 2 and 0 in sides and centre_children and len(limbs.toes):  # unnamed: the rest pose
         across = skeleton.rest_positions()[roots] @ _left_axis(skeleton, centre_children[0])
         sides = [1, -1] if across[0] > across[1] else [-1, 1]
+        if not rest_pose_stands(skeleton):  # no way to tell: the finding order, said by `sides_guessed`
+            sides = [1, -1]
     for root, side in zip(roots, sides):
         part[subtree(skeleton, root)] = "left-arm" if side > 0 else "right-arm"
     found = {name: np.flatnonzero(part == name) for name in PARTS}
     return {name: joints for name, joints in found.items() if len(joints)}
+
+
+STANDING_DEGREES = 45.0  # a rest pose stands where both legs point within this of straight down from the spine
+
+
+def rest_pose_stands(skeleton: Skeleton) -> bool:
+    """Whether the rest pose stands: both legs (hip to ankle) point within `STANDING_DEGREES` of the
+    direction opposite the spine's (pelvis to the spine's first joint). Some rigs keep every bone along its
+    joint's own X axis at rest (left legs along +X, right legs along -X): no side can be read from those."""
+    limbs, rest = find_limbs(skeleton), skeleton.rest_positions()
+    centre = [c for c in skeleton.children(skeleton.pelvis) if c not in set(limbs.hips.tolist())]
+    if not centre or len(limbs.ankles) == 0:
+        return False
+    deepest = subtree(skeleton, centre[0])
+    down = rest[skeleton.pelvis] - np.mean(rest[deepest], axis=0)  # away from the upper body
+    legs = rest[limbs.ankles] - rest[limbs.hips]  # (F, 3)
+    cosines = legs @ down / np.maximum(np.linalg.norm(legs, axis=1) * np.linalg.norm(down), 1e-12)
+    return bool(np.all(cosines >= np.cos(np.radians(STANDING_DEGREES))))
+
+
+def sides_guessed(skeleton: Skeleton) -> bool:
+    """Whether `body_parts` can only guess which arm is the left one: no joint names say left or right, and
+    the rest pose does not stand (`rest_pose_stands`)."""
+    roots = find_limbs(skeleton).arm_roots.tolist()
+    named = all(int(skeleton.sides()[root]) != 0 for root in roots)
+    return len(roots) == 2 and not named and not rest_pose_stands(skeleton)
 
 
 def _left_axis(skeleton: Skeleton, spine: int) -> FloatArray:
