@@ -376,6 +376,11 @@ def test_unnamed_sides_on_a_rest_pose_that_does_not_stand_take_the_first_listed_
         result = transfer(unnamed, clips["walk_masculine_010"], model=model, keep_part="left-arm")
     assert "no joint names say left or right" in caplog.text
     assert any("no joint names say left or right" in note for note in result.explain["notes"])
+    caplog.clear()
+    with caplog.at_level("WARNING"):  # both arms alike: which is the left one does not matter
+        both = transfer(unnamed, clips["walk_masculine_010"], model=model, keep_part="arms")
+    assert "no joint names say left or right" not in caplog.text
+    assert not any("no joint names say left or right" in note for note in both.explain["notes"])
     assert np.array_equal(
         result.motion.rotations[:, named_left], wave.rotations[: result.motion.num_frames, named_left]
     )

@@ -83,7 +83,8 @@ def test_a_z_up_pair_transfers_as_its_y_up_pair_and_is_written_z_up(
     result = _cli(
         "transfer", str(z_content), "--style", str(z_style), "-o", str(told), "--no-cache", "--up", "y"
     )
-    assert result.returncode == 0 and "stands along" not in result.stderr
+    assert result.returncode == 0 and "read with +Z up" not in result.stderr
+    assert "its body stands along +Z, but it is read with +Y up as --up says" in result.stderr
     assert read_clip(told, up="y")[0].num_frames != read_clip(z_out, up="y")[0].num_frames
 
 
@@ -101,3 +102,43 @@ def test_a_z_up_clip_converts_to_a_y_up_gltf_and_reports_its_height(
     y_up.write_bytes(walk.data())
     heights = [_cli("info", str(path)).stdout.split("height:")[1].split()[0] for path in (z_up, y_up)]
     assert heights[0] == heights[1]
+
+
+def test_a_stated_up_is_checked_and_handed_to_every_reading_process(
+    tmp_path: Path, dataset_clips: list[ClipRef], caplog
+) -> None:  # type: ignore[no-untyped-def]
+    from elastyle.training.loop import load_motions
+
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005")
+    z_up = _z_up_copy(walk, tmp_path / "z.bvh")
+    with pytest.raises(ValueError, match="up must be one of auto, y, z"):
+        read_clip(z_up, up="Z")
+    with caplog.at_level("WARNING"):
+        read_clip(z_up, up="y")
+    assert "its body stands along +Z, but it is read with +Y up as --up says" in caplog.text
+    # training reads more than 8 clips in other processes: each is told the axis, whatever their start
+    clips = [ClipRef(str(_z_up_copy(walk, tmp_path / f"z_{take:03d}.bvh"))) for take in range(9)]
+    as_filed = load_motions(clips, None, up="y")
+    turned = load_motions(clips, None, up="auto")
+    raw = read_clip(z_up, up="y")[0]
+    assert all(np.array_equal(m.rotations, raw.rotations) for m in as_filed)
+    assert all(np.abs(m.positions() - walk.read()[0].positions()).max() < 1e-9 for m in turned)
+
+
+def test_a_z_up_contents_explain_file_says_it_was_turned(
+    tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
+    import json
+
+    content, style = (
+        clip_named(dataset_clips, f"dataset-2_{s}") for s in ("walk_normal_005", "walk_elderly_010")
+    )
+    z_content = _z_up_copy(content, tmp_path / "z.bvh")
+    y_style = tmp_path / "y_style.bvh"
+    y_style.write_bytes(style.data())  # a Y-up style with a Z-up content
+    explain = tmp_path / "e.json"
+    result = _cli("transfer", str(z_content), "--style", str(y_style), "-o", str(tmp_path / "o.bvh"),
+                  "--explain", str(explain), "--no-cache")  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    notes = json.loads(explain.read_text())["notes"]
+    assert any("read with +Z up, turned to +Y up" in note for note in notes), notes

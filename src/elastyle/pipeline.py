@@ -126,15 +126,10 @@ def transfer(
             as_library(model, second_style, second_style_names, config.mirror_style, config.reverse_style)
         )
     kept = part_joints(content.skeleton, config.kept_parts, content_name)  # (K,) joints kept as performed
-    named_parts = {
-        *config.kept_parts,
-        *(p for n in (part_styles or {}) for p in parse_parts(n, "--style-part")),
-    }
-    sided = sorted(named_parts & {"left-arm", "right-arm"})
-    if sided and sides_guessed(content.skeleton):
+    if _arms_treated_apart(config.kept_parts, part_styles) and sides_guessed(content.skeleton):
         _say(notes, (
             f"warning: {content_name}: no joint names say left or right and its rest pose does not stand, so "
-            f"the arm its file lists first is taken for the left one ({sided[0]} may name the other)"
+            "the arm its file lists first is taken for the left one (left-arm and right-arm may be swapped)"
         ))  # fmt: skip
     by_part = [
         (part_joints(content.skeleton, parse_parts(names, "--style-part"), content_name),
@@ -309,6 +304,18 @@ def short_content_note(content_name: str, duration_s: float, patch_s: float) -> 
         "clip is matched as one stretched window, so it takes the style's manner only roughly and its length "
         "follows that window's stretch"
     )
+
+
+def _arms_treated_apart(kept_parts: Sequence[str], part_styles: Mapping[str, StyleInput] | None) -> bool:
+    """Whether --keep-part and --style-part treat the left and the right arm differently (naming one arm,
+    or each with another style), so which arm is the left one matters."""
+
+    def treatment(arm: str) -> str | None:
+        if arm in kept_parts:
+            return "kept"
+        return next((names for names in part_styles or {} if arm in parse_parts(names, "--style-part")), None)
+
+    return treatment("left-arm") != treatment("right-arm")
 
 
 def _check_clip_type(value: object, role: str) -> None:

@@ -72,7 +72,13 @@ def _transfer(job: Job, content_spec: str, target: Path) -> tuple[bytes, dict[st
     )  # fmt: skip
     log.info("transferred %s (%d frames, %.2f s; content %.2f s)", content_spec, result.motion.num_frames,
              result.motion.duration_s, motion.duration_s)  # fmt: skip
-    return clip_bytes(target, result.motion, layout), result.explain
+    explain = result.explain
+    if layout.up != "y":  # said when read (once per process), recorded for every clip
+        turned = (
+            f"note: {content_spec}: read with +{layout.up.upper()} up, turned to +Y up, and written back so"
+        )
+        explain = dict(explain, notes=[turned, *explain["notes"]])
+    return clip_bytes(target, result.motion, layout), explain
 
 
 def _write(job: Job, target: Path, output: bytes) -> None:

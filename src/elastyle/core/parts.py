@@ -39,17 +39,32 @@ def subtree(skeleton: Skeleton, joint: int) -> list[int]:
     return sorted(inside)
 
 
+def spine_root(skeleton: Skeleton) -> int | None:
+    """The spine's first joint: the pelvis's first child that starts no leg (None where there is none)."""
+    legs = set(find_limbs(skeleton).hips.tolist())
+    return next((c for c in skeleton.children(skeleton.pelvis) if c not in legs), None)
+
+
+def trunk(skeleton: Skeleton) -> list[int]:
+    """The spine's subtree without the arms (spine, chest, neck, head), sorted; empty without a spine."""
+    spine = spine_root(skeleton)
+    if spine is None:
+        return []
+    arms = {j for root in find_limbs(skeleton).arm_roots.tolist() for j in subtree(skeleton, root)}
+    return [j for j in subtree(skeleton, spine) if j not in arms]
+
+
 def body_parts(skeleton: Skeleton) -> dict[str, IntArray]:
     """The joints (sorted) of each part the skeleton has; parts it lacks (no arms found) are left out."""
     limbs = find_limbs(skeleton)
     part = np.full(skeleton.num_joints, "legs", dtype=object)
-    centre_children = [c for c in skeleton.children(skeleton.pelvis) if c not in set(limbs.hips.tolist())]
-    if len(limbs.hips) and centre_children:
-        part[subtree(skeleton, centre_children[0])] = "spine"
+    spine = spine_root(skeleton)
+    if len(limbs.hips) and spine is not None:
+        part[subtree(skeleton, spine)] = "spine"
     roots = limbs.arm_roots.tolist()
     sides = [int(skeleton.sides()[root]) for root in roots]
-    if len(roots) == 2 and 0 in sides and centre_children and len(limbs.toes):  # unnamed: the rest pose
-        across = skeleton.rest_positions()[roots] @ _left_axis(skeleton, centre_children[0])
+    if len(roots) == 2 and 0 in sides and spine is not None and len(limbs.toes):  # unnamed: the rest pose
+        across = skeleton.rest_positions()[roots] @ _left_axis(skeleton, spine)
         sides = [1, -1] if across[0] > across[1] else [-1, 1]
         if not rest_pose_stands(skeleton):  # no way to tell: the finding order, said by `sides_guessed`
             sides = [1, -1]
@@ -59,19 +74,20 @@ def body_parts(skeleton: Skeleton) -> dict[str, IntArray]:
     return {name: joints for name, joints in found.items() if len(joints)}
 
 
-STANDING_DEGREES = 45.0  # a rest pose stands where both legs point within this of straight down from the spine
+STANDING_DEGREES = (
+    45.0  # a rest pose stands where both legs point within this of straight down from the spine
+)
 
 
 def rest_pose_stands(skeleton: Skeleton) -> bool:
     """Whether the rest pose stands: both legs (hip to ankle) point within `STANDING_DEGREES` of the
-    direction opposite the spine's (pelvis to the spine's first joint). Some rigs keep every bone along its
+    direction from the trunk's mean joint (`trunk`) down to the pelvis. Some rigs keep every bone along its
     joint's own X axis at rest (left legs along +X, right legs along -X): no side can be read from those."""
     limbs, rest = find_limbs(skeleton), skeleton.rest_positions()
-    centre = [c for c in skeleton.children(skeleton.pelvis) if c not in set(limbs.hips.tolist())]
-    if not centre or len(limbs.ankles) == 0:
+    upper = trunk(skeleton)
+    if not upper or len(limbs.ankles) == 0:
         return False
-    deepest = subtree(skeleton, centre[0])
-    down = rest[skeleton.pelvis] - np.mean(rest[deepest], axis=0)  # away from the upper body
+    down = rest[skeleton.pelvis] - np.mean(rest[upper], axis=0)  # away from the upper body
     legs = rest[limbs.ankles] - rest[limbs.hips]  # (F, 3)
     cosines = legs @ down / np.maximum(np.linalg.norm(legs, axis=1) * np.linalg.norm(down), 1e-12)
     return bool(np.all(cosines >= np.cos(np.radians(STANDING_DEGREES))))

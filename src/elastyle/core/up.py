@@ -6,6 +6,7 @@ and turned back when it is written, so every step works with +Y up and an output
 file as the content does.
 
     standing_axis   the axis a clip's body stands along: "z" where it clearly stands along +Z, else "y"
+    detected_axis   "y" or "z" where the body clearly stands along it, None where no extent decides
     turned_up       a clip of the given up axis turned to +Y up
     turned_back     a +Y-up clip turned back to the given up axis
 """
@@ -14,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from elastyle.core.body import find_limbs
 from elastyle.core.motion import Motion
+from elastyle.core.parts import subtree, trunk
 from elastyle.core.rotations import from_matrix, to_matrix
 from elastyle.types import FloatArray
 
@@ -24,7 +25,7 @@ UP_AXES = ("y", "z")
 _TO_Y_UP = {"y": np.eye(3), "z": np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])}
 # a body stands along an axis where its extent along it is at least this many times that along the others
 STANDING_RATIO = 1.25
-# ... its trunk (the pelvis's largest subtree but for the legs, without the arms) lies above the pelvis by at
+# ... its trunk (`core.parts.trunk`: spine, neck, head) lies above the pelvis along it by at
 # least this share of that extent, and its pelvis travels along it by at most this share (a body lying
 # along an axis, crawling, travels along it; one standing along it travels across it)
 UPPER_BODY_SHARE = 0.1
@@ -35,21 +36,22 @@ DETECTION_FRAMES = 60  # the frames read to decide (evenly spread over the clip)
 def standing_axis(motion: Motion) -> str:
     """ "z" where the clip's body clearly stands along +Z and not along +Y; otherwise "y" (BVH's convention,
     also for a body that lies or crawls, which no extent decides)."""
+    return detected_axis(motion) or "y"
+
+
+def detected_axis(motion: Motion) -> str | None:
+    """ "y" or "z" where the clip's body clearly stands along that axis and not along the other; None
+    where neither or both (a body that lies, crawls or curls up)."""
     skeleton = motion.skeleton
-    limbs = find_limbs(skeleton)
     pelvis = skeleton.pelvis
-    upper = [c for c in skeleton.children(pelvis) if c not in set(limbs.hips.tolist())]
-    body = _subtree(skeleton.parents, pelvis)
+    body, upper = subtree(skeleton, pelvis), trunk(skeleton)  # the body below its root; spine and head
     if not upper or len(body) < 3:
-        return "y"
-    upper_body = max((_subtree(skeleton.parents, c) for c in upper), key=len)
-    arms = {j for root in limbs.arm_roots.tolist() for j in _subtree(skeleton.parents, root)}
-    trunk = [j for j in upper_body if j not in arms] or upper_body  # spine, neck, head (not the hands)
+        return None
     step = max(1, motion.num_frames // DETECTION_FRAMES)
     sampled = Motion(skeleton, motion.rotations[::step], motion.translations[::step], motion.fps)
     positions = sampled.positions(body)  # (T', J, 3)
     extent = np.median(np.ptp(positions[:, body], axis=1), axis=0)  # (3,) the body's size along x, y, z
-    relative = positions[:, trunk] - positions[:, pelvis : pelvis + 1]
+    relative = positions[:, upper] - positions[:, pelvis : pelvis + 1]
     above = np.mean(relative, axis=(0, 1))  # (3,) where the trunk lies from the pelvis
     travel = np.ptp(positions[:, pelvis], axis=0)  # (3,)
 
@@ -61,7 +63,8 @@ def standing_axis(motion: Motion) -> str:
             and travel[axis] <= TRAVEL_SHARE * max(extent[axis], np.max(travel[others]))
         )
 
-    return "z" if stands_along(2) and not stands_along(1) else "y"
+    along_y, along_z = stands_along(1), stands_along(2)
+    return None if along_y == along_z else ("y" if along_y else "z")
 
 
 def turned_up(motion: Motion, up: str) -> Motion:
@@ -82,12 +85,3 @@ def _turned(motion: Motion, turn: FloatArray) -> Motion:
     rotations[:, 0] = from_matrix(turn @ to_matrix(motion.rotations[:, 0]))
     translations[:, 0] = motion.translations[:, 0] @ turn.T
     return Motion(motion.skeleton, rotations, translations, motion.fps)
-
-
-def _subtree(parents: np.ndarray, joint: int) -> list[int]:
-    """The joint and every joint below it (parents come before their children)."""
-    inside = {joint}
-    for j in range(joint + 1, len(parents)):
-        if parents[j] in inside:
-            inside.add(j)
-    return sorted(inside)

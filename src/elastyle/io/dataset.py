@@ -20,7 +20,7 @@ from typing import NamedTuple
 import numpy as np
 
 from elastyle.core.motion import Motion
-from elastyle.core.up import UP_AXES, standing_axis, turned_up
+from elastyle.core.up import UP_AXES, detected_axis, turned_up
 from elastyle.errors import BvhError, DatasetError
 from elastyle.io.bvh_layout import BvhLayout
 from elastyle.io.bvh_read import parse_bvh, read_bvh, read_input
@@ -60,13 +60,21 @@ class ClipRef(NamedTuple):
             motion = parse_glb(self.data(), self.name)
             moving = np.flatnonzero(np.ptp(motion.translations, axis=0).max(axis=1) > 0).tolist()
             return motion, BvhLayout.default(motion.skeleton, motion.fps, moving)
-        motion, layout = read_bvh(self.name) if self.archive is None else parse_bvh(self.data(), self.name)
         up = up or _READ_UP[0]
-        axis = standing_axis(motion) if up == "auto" else up
+        if up not in READ_UPS:
+            raise ValueError(f"up must be one of {', '.join(READ_UPS)}, got {up!r}")
+        motion, layout = read_bvh(self.name) if self.archive is None else parse_bvh(self.data(), self.name)
+        detected = detected_axis(motion)
+        axis = (detected or "y") if up == "auto" else up
+        if up == "auto" and axis != "y":
+            _note_turned(self.name)
+        elif up != "auto" and detected not in (None, up):
+            log.warning(
+                "note: %s: its body stands along +%s, but it is read with +%s up as --up says",
+                self.name, detected.upper(), up.upper(),
+            )  # fmt: skip
         if axis == "y":
             return motion, layout
-        if up == "auto":
-            _note_turned(self.name)
         return turned_up(motion, axis), layout._replace(up=axis)
 
     def data(self) -> bytes:

@@ -26,7 +26,7 @@ from elastyle.core.mirror import mirror
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
 from elastyle.errors import ElastyleError, SkeletonMismatchError
-from elastyle.io.dataset import ClipRef, find_clips, split_held_out
+from elastyle.io.dataset import ClipRef, find_clips, read_up, split_held_out
 from elastyle.model.autoencoder import Autoencoder
 from elastyle.model.depth import DEFAULT_WARN_CM, calibrate
 from elastyle.model.features import FeatureSpec
@@ -37,15 +37,18 @@ from elastyle.training.windows import draw_speed, perturb_windows, sample_window
 log = logging.getLogger(__name__)
 
 
-def _read_resampled(task: tuple[ClipRef, float | None]) -> Motion:
-    clip, fps = task
-    motion, _ = clip.read()
+def _read_resampled(task: tuple[ClipRef, float | None, str]) -> Motion:
+    clip, fps, up = task
+    motion, _ = clip.read(up)
     return motion if fps is None else motion.resample(fps)
 
 
-def load_motions(clips: Sequence[ClipRef], fps: float | None, workers: int = 2) -> list[Motion]:
-    """Read clips (in parallel), resampled to `fps`; all must share one skeleton."""
-    tasks = [(clip, fps) for clip in clips]
+def load_motions(
+    clips: Sequence[ClipRef], fps: float | None, workers: int = 2, up: str | None = None
+) -> list[Motion]:
+    """Read clips (in parallel), resampled to `fps`; all must share one skeleton. up: how their up axis
+    is read (`ClipRef.read`; None: as `set_read_up` last said), handed to every reading process."""
+    tasks = [(clip, fps, up or read_up()) for clip in clips]
     if len(tasks) > 8 and workers > 1:
         with ProcessPoolExecutor(workers) as pool:
             motions = list(pool.map(_read_resampled, tasks, chunksize=16))
