@@ -308,6 +308,42 @@ def test_the_models_skeleton_under_other_names_transfers_as_it_does(
     assert any("joint names differ from the model's" in note for note in renamed.explain["notes"])
 
 
+def _without_root(motion: Motion) -> Motion:
+    """The clip as an exporter that makes the pelvis the ROOT writes it: the static joint above dropped."""
+    skeleton = motion.skeleton
+    dropped = Skeleton(
+        skeleton.names[1:], np.maximum(skeleton.parents[1:] - 1, -1), skeleton.offsets[1:],
+        skeleton.end_sites[1:], skeleton.unit_cm,
+    )  # fmt: skip
+    return Motion(dropped, motion.rotations[:, 1:], motion.translations[:, 1:], motion.fps)
+
+
+def test_the_models_skeleton_without_its_static_root_transfers_as_it_does(
+    walk: Motion, dataset_clips: list[ClipRef], tmp_path: Path
+) -> None:
+    """The dataset rig with Hips as the BVH ROOT (its static joint_Root at the origin dropped): read with the
+    root added at rest, the output written on the clip's own 21 joints, the same poses as the rig's."""
+    from elastyle.pipeline import transfer
+
+    model = load_model()
+    style = clip_named(dataset_clips, "dataset-2_walk_active_010").read()[0]
+    assert not np.any(walk.rotations[:, 0]) and not np.any(walk.translations[:, 0])  # a static root
+    own = transfer(walk, style, model=model).motion
+    rootless = transfer(_without_root(walk), _without_root(style), model=model)
+    assert rootless.motion.skeleton.names == walk.skeleton.names[1:]
+    np.testing.assert_allclose(rootless.motion.positions(), own.positions()[:, 1:], atol=1e-9)
+    assert any("without joint_Root above Hips" in note for note in rootless.explain["notes"])
+    still = transfer(_without_root(walk), _without_root(style), model=model, strength=0).motion
+    assert np.abs(still.positions() - _without_root(walk).positions()).max() < 1e-9
+    # on the command line, from files whose ROOT is Hips
+    content, style_file, out = tmp_path / "content.bvh", tmp_path / "style.bvh", tmp_path / "out.bvh"
+    write_bvh(content, _without_root(walk))
+    write_bvh(style_file, _without_root(style))
+    done = _cli("transfer", str(content), "--style", str(style_file), "-o", str(out), "--no-cache")
+    assert done.returncode == 0 and "without joint_Root above Hips" in done.stderr, done.stderr
+    assert read_bvh(out)[0].skeleton.names == walk.skeleton.names[1:]
+
+
 def test_a_renamed_skeleton_whose_sides_or_rest_pose_differ_is_refused(walk: Motion) -> None:
     from elastyle import SkeletonMismatchError
     from elastyle.pipeline import transfer

@@ -44,7 +44,7 @@ def reconstruction_error_cm(model: StyleModel, motion: Motion, latents: FloatArr
 
 def clip_depth(model: StyleModel, motion: Motion, name: str) -> tuple[float, str | None]:
     """A clip's reconstruction error (cm) and, when it is far above the held-out takes', the warning."""
-    working = model.at_model_size(motion)[0].resample(model.fps)
+    working = model.at_model_size(model.on_model_hierarchy(motion))[0].resample(model.fps)
     latents, root = model.encode_motion(working)
     error = reconstruction_error_cm(model, working, latents, root)
     return error, depth_warning(model, error, name)

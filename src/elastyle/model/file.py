@@ -18,6 +18,7 @@ import numpy as np
 
 from elastyle.core.body import at_size_of, same_rest_pose, same_structure
 from elastyle.core.motion import Motion
+from elastyle.core.roots import with_added_roots
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import smooth
 from elastyle.errors import ModelError, SkeletonMismatchError
@@ -54,6 +55,11 @@ class StyleModel:
     def at_model_size(self, motion: Motion) -> tuple[Motion, float]:
         """The clip scaled to the model's unit and size (`core.body.size_factor`), and the factor."""
         return at_size_of(motion, self.skeleton)
+
+    def on_model_hierarchy(self, motion: Motion) -> Motion:
+        """The clip with the joints above its root that the model has and it lacks added at rest
+        (`core.roots.with_added_roots`: a static root some exporters drop); any other clip as it is."""
+        return with_added_roots(self.skeleton, motion) or motion
 
     def normalise(self, features: FloatArray) -> FloatArray:
         return (features - self.feature_mean) / self.feature_std
@@ -92,6 +98,13 @@ class StyleModel:
             return (
                 f"note: {what}: joint names differ from the model's ({renamed[0]} for {renamed[1]}, ...), but "
                 "its hierarchy, limbs and rest pose are the model's: read joint by joint in that order"
+            )
+        on_hierarchy = with_added_roots(self.skeleton, motion)
+        if on_hierarchy is not None:
+            added = self.skeleton.num_joints - motion.skeleton.num_joints
+            return (
+                f"note: {what}: the model's skeleton without {', '.join(self.skeleton.names[:added])} above "
+                f"{motion.skeleton.names[0]}: read with it added at rest, and written without it"
             )
         try:
             self.skeleton.check_same(motion.skeleton, "the model", what)
