@@ -286,7 +286,10 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     pair = dataset_pair()
     if pair is None:
-        print("no dataset: set ELASTYLE_DATA", file=sys.stderr)
+        print(
+            "no dataset: set ELASTYLE_DATA (or put ../shared/data/bandai-namco-2.zip beside the project)",
+            file=sys.stderr,
+        )
         return 1
     with tempfile.TemporaryDirectory() as folder:
         started = time.perf_counter()

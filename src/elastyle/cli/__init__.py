@@ -93,13 +93,18 @@ def build_parser() -> _OneLineParser:
     info.add_argument("clip", nargs="+", help="BVH or .glb files, folders, globs or zip archives of them")
     info.set_defaults(run=_command_info)
 
-    convert = commands.add_parser("convert", help="resample, mirror and rewrite a BVH clip")
+    convert = commands.add_parser(
+        "convert",
+        help="resample, mirror and rewrite a clip, as BVH or .glb",
+        description="Rewrite one clip (BVH or .glb, also inside a zip) as BVH or binary glTF (.glb, metres and "
+        "+Y up): resampled to another frame rate, mirrored left to right, or just converted.",
+    )
     convert.add_argument("input")
     convert.add_argument("-o", "--output", required=True, help="output file: .bvh or .glb (binary glTF 2.0)")
     convert.add_argument("--fps", type=float, help="resample to this frame rate")
     convert.add_argument("--mirror", action="store_true", help="swap left and right")
     convert.add_argument("--force", action="store_true", help="overwrite an existing output file")
-    add_units_flag(convert)
+    add_units_flag(convert, "a .glb output is scaled to metres from it")
     convert.set_defaults(run=_command_convert)
 
     from elastyle.cli.train import add_train_commands

@@ -137,7 +137,12 @@ def _print_figures(figures: dict[str, float], as_json: bool) -> None:
 def run_demo(args: argparse.Namespace) -> int:
     from elastyle.eval.report import transfer_figures
     from elastyle.io.bvh_write import write_bvh
-    from elastyle.io.dataset import PUBLIC_DATASET_HINT, default_data_path, find_clips
+    from elastyle.io.dataset import (
+        DATA_ENVIRONMENT_VARIABLE,
+        PUBLIC_DATASET_HINT,
+        default_data_path,
+        find_clips,
+    )
     from elastyle.io.files import write_text_atomic
     from elastyle.model.file import load_model
     from elastyle.pipeline import transfer
@@ -146,7 +151,11 @@ def run_demo(args: argparse.Namespace) -> int:
 
     data = args.data or default_data_path()
     if data is None or not Path(data).exists():
-        raise DatasetError(f"no dataset found ({data or 'nothing configured'}): {PUBLIC_DATASET_HINT}")
+        tried = data or (
+            f"no --data, no ${DATA_ENVIRONMENT_VARIABLE}, and no ../shared/data/bandai-namco-2.zip beside the "
+            f"project or the working folder {Path.cwd()}"
+        )
+        raise DatasetError(f"no dataset found ({tried}): {PUBLIC_DATASET_HINT}")
     clips = {c.stem: c for c in find_clips([str(data)], pattern="*_walk_*")}
     missing = [stem for stem in (DEMO_CONTENT, *DEMO_STYLES) if stem not in clips]
     if missing:

@@ -23,13 +23,22 @@ def add_train_commands(commands: Any) -> None:
     )
     trainer.add_argument("data", nargs="+", help="BVH files, folders, globs or zip archives")
     trainer.add_argument("-o", "--output", required=True, help="model file to write (.npz)")
-    trainer.add_argument("--minutes", type=float, help="time budget")
-    trainer.add_argument("--steps", type=int, help="step budget")
+    trainer.add_argument(
+        "--minutes",
+        type=float,
+        help="time budget of the whole training (with --resume, the time already spent counts)",
+    )
+    trainer.add_argument(
+        "--steps",
+        type=int,
+        help="step budget of the whole training (with --resume, the steps already taken count)",
+    )
     trainer.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     trainer.add_argument(
         "--resume",
         help="checkpoint to continue from (MODEL.npz.ckpt is written as training goes; with --force once the "
-        "model file exists)",
+        "model file exists): training goes on up to --minutes or --steps in all, so give a larger budget than the "
+        "first run's",
     )
     trainer.add_argument(
         "--recipe", choices=("report", "shipped"), default="report",
@@ -93,6 +102,9 @@ def add_train_commands(commands: Any) -> None:
     calibrate = commands.add_parser(
         "calibrate",
         help="record a model's held-out reconstruction error, which sets its out-of-depth warning",
+        description="Measure how well a model reproduces its held-out takes (mean joint error, cm) and write "
+        "the model with those figures: transfer and eval warn when a content clip reproduces worse than twice "
+        "their 95th percentile (and at least 1 cm). `elastyle train` does this at its end.",
     )
     calibrate.add_argument("model", help="model file (.npz)")
     calibrate.add_argument("data", nargs="+", help="its clips: the held-out takes among them are measured")
