@@ -100,8 +100,9 @@ def test_a_z_up_clip_converts_to_a_y_up_gltf_and_reports_its_height(
     assert np.abs(positions - walk.read()[0].positions() / 100).max() < 1e-4
     y_up = tmp_path / "y.bvh"
     y_up.write_bytes(walk.data())
-    heights = [_cli("info", str(path)).stdout.split("height:")[1].split()[0] for path in (z_up, y_up)]
-    assert heights[0] == heights[1]
+    infos = [_cli("info", str(path)).stdout for path in (z_up, y_up)]
+    assert infos[0].split("height:")[1].split()[0] == infos[1].split("height:")[1].split()[0]
+    assert "up:       +Z" in infos[0] and "up:       +Y" in infos[1]
 
 
 def test_a_stated_up_is_checked_and_handed_to_every_reading_process(

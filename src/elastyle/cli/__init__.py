@@ -36,6 +36,7 @@ def _command_info(args: argparse.Namespace) -> int:
         print(
             f"  height:   {float(positions[0, :, 1].max() - positions[0, :, 1].min()):.2f} file units (first frame)"
         )
+        print(f"  up:       +{layout.up.upper()}")
     return 0
 
 
