@@ -42,12 +42,26 @@ def mix_tracks(
     return latents, log_rate
 
 
+ENDING_FRAMES = 30.0  # the output frames over which the map's last fraction of a frame is spread
+
+
 def output_content_times(grid: FloatArray, log_rate: FloatArray) -> FloatArray:
-    """Content time (T_out,), in content frames, of every output frame under the rate exp(log_rate)."""
+    """Content time (T_out,), in content frames, of every output frame under the rate exp(log_rate).
+
+    The map's length rounds to a whole number of output frames: its last `ENDING_FRAMES` are played a
+    little faster or slower (by at most half a frame over them), so the last output frame reads the
+    content's last frame at the pace of the frames before it. (Cut at the last whole frame, the clip ended
+    up to a frame before the content does, and a frame added past that end repeated the last pose: a hitch
+    where the clip loops or blends on.)"""
     rate = np.exp(log_rate)
     output_time = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(grid))])
-    num_output = int(np.floor(output_time[-1] + 1e-6)) + 1
-    return np.interp(np.arange(num_output), output_time, grid)
+    total = output_time[-1]
+    frames = max(int(np.floor(total + 0.5)), 1 if total > 0 else 0)  # output frames after the first
+    start = max(total - ENDING_FRAMES, 0.0)  # where the ending begins
+    if total > 0 and frames > start:
+        ending = output_time > start
+        output_time[ending] = start + (output_time[ending] - start) * (frames - start) / (total - start)
+    return np.interp(np.arange(frames + 1), output_time, grid)
 
 
 def on_output_frames(values: FloatArray, grid: FloatArray, content_time: FloatArray) -> FloatArray:
