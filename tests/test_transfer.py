@@ -341,3 +341,39 @@ def test_a_path_given_for_a_clip_says_to_read_it_first(model, content: Motion, w
         transfer(content, path, model=model)
     with pytest.raises(TypeError, match=r"returns \(motion, layout\)"):
         transfer(content, [walk_clip.read()], model=model)
+
+
+def _pelvis_steps_cm(motion: Motion) -> np.ndarray:
+    """(T - 1,) how far the pelvis moves over the ground from each frame to the next (cm at 30 fps)."""
+    pelvis = motion.positions()[:, motion.skeleton.pelvis][:, [0, 2]]
+    return np.linalg.norm(np.diff(pelvis, axis=0), axis=1)
+
+
+@pytest.mark.parametrize("style_stem", ["walk_feminine_010", "walk_elderly_010"])
+def test_the_output_keeps_moving_to_its_last_frame(
+    model, content: Motion, dataset_clips: list[ClipRef], style_stem: str
+) -> None:  # type: ignore[no-untyped-def]
+    """The last output frame reads the content's last frame: no frame past the time map's end repeating the
+    pose before it (the pelvis stepped 7 of 113 cm/s into the feminine walk's last frame), which shows as a
+    hitch where a clip loops or blends into the next."""
+    style = clip_named(dataset_clips, f"dataset-2_{style_stem}").read()[0]
+    steps = _pelvis_steps_cm(transfer(content, style, model=model).motion)
+    assert steps[-1] > 0.6 * np.median(steps[-10:-1]), steps[-10:]
+
+
+@pytest.mark.parametrize("style_stem", ["walk_elderly_010", "wave-both-hands_masculine_010"])
+def test_a_still_content_keeps_its_length(
+    model, content: Motion, dataset_clips: list[ClipRef], style_stem: str
+) -> None:  # type: ignore[no-untyped-def]
+    """A body holding still (a walk's first pose held for 3 s) has no pace to take: read unstretched, its
+    length stays (a two-handed wave's style made 3 s of idle 2.07 s, each patch at a chance stretch)."""
+    idle = Motion(
+        content.skeleton,
+        np.repeat(content.rotations[:1], 90, axis=0),
+        np.repeat(content.translations[:1], 90, axis=0),
+        content.fps,
+    )
+    style = clip_named(dataset_clips, f"dataset-2_{style_stem}").read()[0]
+    result = transfer(idle, style, model=model)
+    assert result.motion.num_frames == idle.num_frames
+    assert {p["stretch"] for p in result.explain["styles"][0]["patches"]} == {1.0}

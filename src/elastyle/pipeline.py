@@ -41,7 +41,7 @@ from elastyle.errors import ClipTooShortError, ConfigError, ResultError
 from elastyle.model.depth import depth_warning, reconstruction_error_cm
 from elastyle.model.features import RootPath
 from elastyle.model.file import StyleModel, load_model
-from elastyle.steps.action import action_channels, part_channels, walks_backwards
+from elastyle.steps.action import action_channels, part_channels, still_frames, walks_backwards
 from elastyle.steps.cleanup import held_footing, lift_to_ground, plant_feet
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.decode import (
@@ -161,8 +161,10 @@ def transfer(
             "then keep their own action: --reverse-style adds the style clips played backwards"
         ))  # fmt: skip
     columns = part_channels(working.skeleton)  # each body part's action columns
+    still = still_frames(actions, working.skeleton, fps)  # (T,) a stop or an idle: no pace to take
     tracks = [
-        style_track(content_latents, actions, library, grid, config, fps, columns) for library in libraries
+        style_track(content_latents, actions, library, grid, config, fps, columns, still)
+        for library in libraries
     ]
     # retime: strength and shares mix the tracks; the mixed rate gives each output frame's content time
     grid_s = grid / fps
@@ -182,7 +184,7 @@ def transfer(
     # parts styled by another library: their own track, decoded on the same timeline, joint by joint
     part_tracks = []  # (joints, track) of each part styled by another library
     for joints, library in by_part:
-        track = style_track(content_latents, actions, library, grid, config, fps, columns)
+        track = style_track(content_latents, actions, library, grid, config, fps, columns, still)
         part_latents, _ = mix_tracks(content_on_grid, strength, [track], [np.ones_like(grid)])
         part = _decoded(model, part_latents, grid, content_time, root_out, config)
         styled = styled.with_joints(part, joints)

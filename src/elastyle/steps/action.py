@@ -25,7 +25,7 @@ from elastyle.core.rotations import lengths
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import frame_steps, smooth
 from elastyle.steps.contacts import GROUND_PERCENTILE, PERCENTILE_METHOD
-from elastyle.types import FloatArray, IntArray
+from elastyle.types import BoolArray, FloatArray, IntArray
 
 # sustained turning: the yaw rate low-passed with this sigma (seconds), so a step's sway does not count
 TURNING_SMOOTH_S = 0.5
@@ -83,6 +83,24 @@ def sustained_turning(actions: FloatArray, clip_starts: IntArray, fps: float) ->
     for start, end in zip(clip_starts, np.append(clip_starts[1:], len(actions))):
         turning[start:end] = smooth(actions[start:end, TURNING_COLUMN], TURNING_SMOOTH_S * fps)
     return turning
+
+
+STILL_LEGS_S = (
+    0.1  # a frame is still where the pelvis travels, every hand moves and every foot rises or falls
+)
+STILL_TURNING = 0.2  # slower than this (leg lengths per second), and the body turns slower than this (rad/s)
+
+
+def still_frames(actions: FloatArray, skeleton: Skeleton, fps: float) -> BoolArray:
+    """(T,) the frames of a clip of `action_channels` (T, A) on `skeleton` at `fps` where the body holds still:
+    a stop or an idle, which has no pace of its own to take a style's."""
+    num_hands = len(find_limbs(skeleton).hands)
+    hand_speeds = actions[:, 3 + 3 * num_hands : 3 + 4 * num_hands]  # (T, H) legs/s
+    feet = actions[:, 3 + 4 * num_hands :]  # (T, F) heights, legs
+    moving = (lengths(actions[:, :2]) > STILL_LEGS_S) | (np.abs(actions[:, TURNING_COLUMN]) > STILL_TURNING)
+    moving |= np.any(hand_speeds > STILL_LEGS_S, axis=1)
+    moving |= np.any(np.abs(frame_steps(feet)) * fps > STILL_LEGS_S, axis=1)
+    return ~moving
 
 
 BACKWARDS_LEGS_S = 0.3  # forward travel below minus this (legs/s) is walking backwards ...

@@ -253,25 +253,36 @@ class SideGuard(NamedTuple):
         return chunk
 
 
+STILL_SHARE = 0.9  # a patch whose content frames are still for at least this share is read unstretched
+
+
 def search_sequential(
-    white_content: FloatArray, windows: StyleWindows, source_lengths: IntArray, guard: SideGuard | None = None
+    white_content: FloatArray,
+    windows: StyleWindows,
+    source_lengths: IntArray,
+    guard: SideGuard | None = None,
+    still: BoolArray | None = None,
 ) -> list[Patch]:
     """Greedy sequential elastic search: the elastic patches (their half-shifted sequence: `half_shifted`);
-    mirrored windows only where `guard` allows them."""
+    mirrored windows only where `guard` allows them. still: (T,) content frames where the body holds still
+    (`steps.action.still_frames`): a patch over such frames is read at its own length, since a stop or an
+    idle has no pace to take (every stretch of it looks alike, so the best match's would be chance)."""
     patch_frames = windows.patch_frames
     num_frames = white_content.shape[0]
     patches: list[Patch] = []
     cursor = 0.0
     while cursor < num_frames or not patches:
-        starts = np.full(len(source_lengths), cursor)
-        queries = sample_windows(white_content, starts, source_lengths, patch_frames)
-        excluded = None if guard is None else guard.excluded(starts, source_lengths, patch_frames)
+        lengths = source_lengths
+        span = still[int(cursor) : int(cursor) + patch_frames] if still is not None else np.zeros(0, bool)
+        if len(span) and np.mean(span) >= STILL_SHARE:
+            lengths = np.array([patch_frames])
+        starts = np.full(len(lengths), cursor)
+        queries = sample_windows(white_content, starts, lengths, patch_frames)
+        excluded = None if guard is None else guard.excluded(starts, lengths, patch_frames)
         index, similarity = windows.best(queries, excluded)
         choice = int(np.argmax(similarity))
-        patches.append(
-            Patch(cursor, float(source_lengths[choice]), int(index[choice]), float(similarity[choice]))
-        )
-        cursor += float(source_lengths[choice])
+        patches.append(Patch(cursor, float(lengths[choice]), int(index[choice]), float(similarity[choice])))
+        cursor += float(lengths[choice])
     return patches
 
 

@@ -22,6 +22,7 @@ from elastyle.steps.library import StyleLibrary, match_frames
 from elastyle.steps.search import (
     Patch,
     SideGuard,
+    StyleWindows,
     half_shifted,
     mean_gap,
     patch_windows,
@@ -96,9 +97,11 @@ def style_track(
     config: TransferConfig,
     fps: float,
     part_columns: dict[str, IntArray] | None = None,
+    still: BoolArray | None = None,
 ) -> StyleTrack:
     """The track of one library for content latents (T, Z) and action descriptors (T, A) on grid times
-    (G,) in content frames; part_columns: the action columns of each body part (`steps.action`)."""
+    (G,) in content frames; part_columns: the action columns of each body part (`steps.action`); still:
+    (T,) content frames where the body holds still, read unstretched (`search.search_sequential`)."""
     content_stats = LatentStats.of([content_latents])
     if config.method in ("wct", "adain"):
         if config.method == "wct":
@@ -106,8 +109,10 @@ def style_track(
             styled = library.stats.colour(content_stats.whiten(content_latents, floor), floor)
         else:
             styled = adain(content_latents, [content_latents], [library.latents])
-        still = np.zeros_like(grid)
-        return StyleTrack(interpolate_rows(styled, grid), still, [], 0, np.ones_like(grid), {}, {}, {}, {})
+        unchanged = np.zeros_like(grid)  # the content's own pace
+        return StyleTrack(
+            interpolate_rows(styled, grid), unchanged, [], 0, np.ones_like(grid), {}, {}, {}, {}
+        )
     wanted = requested_patch_frames(config, fps)
     patch_frames = min(wanted, library.longest_clip)
     if patch_frames < MIN_PATCH_FRAMES:
@@ -129,7 +134,14 @@ def style_track(
         patch_frames, config.whiten_floor, config.action_weight, config.match_frame_step(fps)
     )
     white_content = content_stats.whiten(content_latents, config.whiten_floor)
-    search = search_sequential if config.placement == "sequential" else search_fixed
+
+    def search(
+        frames: FloatArray, windows: StyleWindows, lengths: IntArray, guard: SideGuard | None
+    ) -> list[Patch]:
+        if config.placement == "sequential":
+            return search_sequential(frames, windows, lengths, guard, still)
+        return search_fixed(frames, windows, lengths, guard)
+
     content_frames = match_frames(white_content, content_actions, config.action_weight)
     lengths = config.source_lengths(patch_frames, fps)
     guard = side_guard(content_actions, library, patch_frames, part_columns or {})
