@@ -57,7 +57,7 @@ from elastyle.steps.library import StyleLibrary, as_library
 from elastyle.steps.schedule import Schedule
 from elastyle.steps.timeline import content_grid, mix_tracks, on_output_frames, output_content_times
 from elastyle.steps.track import requested_patch_frames, style_track
-from elastyle.types import BoolArray, FloatArray
+from elastyle.types import FloatArray
 
 StyleInput = Motion | Sequence[Motion] | StyleLibrary
 log = logging.getLogger(__name__)
@@ -205,13 +205,21 @@ def transfer(
         base_at = frames_of(_decoded(model, content_on_grid, grid, content_time, root_out, config), positions)
         motion = compose_residual(styled_at, base_at, content_at, strength_out, config.residual_smooth_s)
         clean_share = strength_out  # the feet planted as far as the style acts
-    if config.cleanup:
-        motion = blend_by_strength(motion, _clean_up(motion, config), clean_share)
     # body parts that keep the content's action: kept ones throughout, the others where the style does
     # another, as far as the strength goes (plain decoding at strength 0 stays the model's reading)
     keep = keep_weights(tracks, shares, part_tracks, content.skeleton, grid, content_time, positions, kept)
     automatic = joint_set(set(range(content.skeleton.num_joints)) - set(kept.tolist()))
     keep[:, automatic] *= np.clip(strength_out, 0.0, 1.0)[:, None]  # kept as far as the style acts
+    legs = body_parts(content.skeleton).get("legs", np.zeros(0, dtype=np.int64))
+    automatic_legs = joint_set(set(legs.tolist()) & set(automatic.tolist()))
+    # the root follows the style's stride only where the legs take it: where they keep the content's action
+    # they keep its path too (legs that took a standing clip's statistics walked 10 % short)
+    legs_keep = (
+        np.max(keep[:, automatic_legs], axis=1) if len(automatic_legs) else np.zeros(len(keep))
+    )  # (N,)
+    root_share = config.root_follows_legs * (1 - legs_keep)  # (N,)
+    if config.cleanup:
+        motion = blend_by_strength(motion, plant_feet(motion, root_share), clean_share)
     if np.any(keep > 0):
         reference = content_at if base_at is None else base_at
         unstyled = joint_set([*kept, *styled_joints])  # kept, or styled by another library
@@ -233,8 +241,6 @@ def transfer(
                 reference = frames_of(base, positions)
         target = keep_target(content_at, styled_at, reference, keep, kept, strength_out, coloured_at, colour)
         motion = blend_by_strength(motion, target, keep)
-        legs = body_parts(content.skeleton).get("legs", np.zeros(0, dtype=np.int64))
-        automatic_legs = joint_set(set(legs.tolist()) & set(automatic.tolist()))
         if config.cleanup and (coloured_at is not None or np.any(keep[:, automatic_legs] > 0)):
             # where the legs keep the content's stepping, the content's own contacts hold as well, and its
             # feet's clearance of the ground: the statistics change how the legs move, not when the feet
@@ -242,7 +248,9 @@ def transfer(
             kept_legs = np.max(keep[:, legs], axis=1) > 0.5  # (N,)
             also, foot_floor = held_footing(content_at, kept_legs)  # (N, F), (N, F, 2)
             if coloured_at is not None:  # coloured legs: the whole clean-up again
-                motion = blend_by_strength(motion, _clean_up(motion, config, also, foot_floor), clean_share)
+                motion = blend_by_strength(
+                    motion, plant_feet(motion, root_share, also, foot_floor), clean_share
+                )
             else:
                 # legs that keep the content's action (a turn matched against straight windows) mix two
                 # gaits, whose stance feet slide: pinned again as far as they keep it, the root left where
@@ -289,18 +297,6 @@ def _decoded(
     """Latents (G, Z) on the content-time grid, decoded on the output's timeline (content_time (T_out,)) on
     the root path read at the same times."""
     return decode_plain(model, on_output_frames(latents, grid, content_time), root, config.smooth_s)
-
-
-def _clean_up(
-    motion: Motion,
-    config: TransferConfig,
-    also: BoolArray | None = None,
-    foot_floor: FloatArray | None = None,
-) -> Motion:
-    """Feet planted, after the root has taken its share of the stance feet's drift; also: (N, F) contacts
-    known from elsewhere, held besides those found; foot_floor: (N, F, 2) the lowest height of each foot's
-    toe and ankle (`steps.cleanup.clean_feet`)."""
-    return plant_feet(motion, config.root_follows_legs, also, foot_floor)
 
 
 def short_content_note(content_name: str, duration_s: float, patch_s: float) -> str:

@@ -33,9 +33,12 @@ SOFT_REACH = 0.995  # IK straightens a knee up to this fraction of the leg's rea
 
 
 def plant_feet(
-    motion: Motion, root_share: float, also: BoolArray | None = None, foot_floor: FloatArray | None = None
+    motion: Motion,
+    root_share: float | FloatArray,
+    also: BoolArray | None = None,
+    foot_floor: FloatArray | None = None,
 ) -> Motion:
-    """The whole clean-up: contacts found, the root moved by `root_share` of the stance feet's drift
+    """The whole clean-up: contacts found, the root moved by `root_share` (or per frame (T,)) of the stance feet's drift
     (`adjust_root_speed`, skipped at 0), then the feet pinned (`clean_feet`). One forward kinematics pass
     serves all three: moving the root moves the legs with it and turns nothing. also: (T, F) contacts known
     from elsewhere, added to those found; foot_floor: (T, F, 2) the lowest height of each foot's toe and
@@ -48,7 +51,7 @@ def plant_feet(
     contacts = detect_contacts(motion, positions)
     if also is not None:
         contacts = contacts | _checked(also, motion, limbs)
-    if root_share <= 0:
+    if np.all(np.asarray(root_share) <= 0):
         return clean_feet(motion, contacts, world=(world_rotations, positions), foot_floor=foot_floor)
     shift = _root_shift(motion, contacts, (world_rotations, positions), root_share)  # (T, 3) world
     moved = Motion(
@@ -192,7 +195,7 @@ def _root_shift(
     motion: Motion,
     contacts: BoolArray,
     world: tuple[FloatArray, FloatArray],
-    share: float,
+    share: float | FloatArray,
     smooth_s: float = 0.2,
     tolerance: float = ROOT_TOLERANCE_OF_PATH,
 ) -> FloatArray:
@@ -206,7 +209,10 @@ def _root_shift(
     drift = steps / np.maximum(planted.sum(axis=(1, 2)), 1.0)[:, None]  # (T-1, 3) mean planted-foot step
     drift[:, 1] = 0.0
     drift = smooth(drift, SMOOTH_SIGMA_OF_WIDTH * smooth_s * motion.fps)
-    shift = -share * np.concatenate([np.zeros((1, 3)), np.cumsum(drift, axis=0)])  # (T, 3) world
+    per_step = np.broadcast_to(np.asarray(share, dtype=np.float64), (motion.num_frames,))[
+        1:, None
+    ]  # (T-1, 1)
+    shift = -np.concatenate([np.zeros((1, 3)), np.cumsum(per_step * drift, axis=0)])  # (T, 3) world
     path = np.sum(lengths(np.diff(positions[:, motion.skeleton.pelvis, [0, 2]], axis=0)))
     furthest = np.max(lengths(shift), initial=0.0)
     if furthest > tolerance * path:
