@@ -161,7 +161,7 @@ def transfer(
             "then keep their own action: --reverse-style adds the style clips played backwards"
         ))  # fmt: skip
     columns = part_channels(working.skeleton)  # each body part's action columns
-    still = still_frames(actions, columns, fps)  # (T,) a stop or an idle: no pace to take
+    still = still_frames(actions, working.skeleton, fps)  # (T,) a stop or an idle: no pace to take
     tracks = [
         style_track(content_latents, actions, library, grid, config, fps, columns, still)
         for library in libraries

@@ -91,16 +91,15 @@ STILL_LEGS_S = (
 STILL_TURNING = 0.2  # slower than this (leg lengths per second), and the body turns slower than this (rad/s)
 
 
-def still_frames(actions: FloatArray, columns: dict[str, IntArray], fps: float) -> BoolArray:
-    """(T,) the frames of a clip of `action_channels` (T, A) at `fps` where the body holds still (a stop, an
-    idle), which has no pace of its own to take a style's; columns: each part's (`part_channels`)."""
+def still_frames(actions: FloatArray, skeleton: Skeleton, fps: float) -> BoolArray:
+    """(T,) the frames of a clip of `action_channels` (T, A) on `skeleton` at `fps` where the body holds still:
+    a stop or an idle, which has no pace of its own to take a style's."""
+    num_hands = len(find_limbs(skeleton).hands)
+    hand_speeds = actions[:, 3 + 3 * num_hands : 3 + 4 * num_hands]  # (T, H) legs/s
+    feet = actions[:, 3 + 4 * num_hands :]  # (T, F) heights, legs
     moving = (lengths(actions[:, :2]) > STILL_LEGS_S) | (np.abs(actions[:, TURNING_COLUMN]) > STILL_TURNING)
-    for part, part_columns in columns.items():
-        if part == "legs":  # the feet's heights: rising or falling
-            feet = actions[:, part_columns[3:]]
-            moving |= np.any(np.abs(frame_steps(feet)) * fps > STILL_LEGS_S, axis=1)
-        else:  # an arm's hand speed
-            moving |= actions[:, part_columns[3]] > STILL_LEGS_S
+    moving |= np.any(hand_speeds > STILL_LEGS_S, axis=1)
+    moving |= np.any(np.abs(frame_steps(feet)) * fps > STILL_LEGS_S, axis=1)
     return ~moving
 
 
