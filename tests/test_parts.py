@@ -387,19 +387,21 @@ def test_unnamed_sides_on_a_rest_pose_that_does_not_stand_take_the_first_listed_
     )
 
 
+@pytest.mark.parametrize("strength", [1.0, 0.5])
 def test_legs_that_keep_a_walk_under_a_standing_clips_style_keep_its_path(
-    model, clips: dict[str, Motion]
+    model, clips: dict[str, Motion], strength: float
 ) -> None:  # type: ignore[no-untyped-def]
     """A walk given a two-handed wave's style: its legs keep walking, with a share of the wave's statistics
     (shorter strides), and the root stays on the walk's path rather than following those strides (it
     ended 10 % short: the clean-up's bound on how far the root follows the legs)."""
     walk = clips["walk_normal_005"]
-    result = transfer(walk, clips["wave-both-hands_masculine_010"], model=model)
+    result = transfer(walk, clips["wave-both-hands_masculine_010"], model=model, strength=strength)
     assert {p["mode"] for p in result.explain["styles"][0]["patches"]} == {"content"}
 
     def travel(motion: Motion) -> float:
         pelvis = motion.positions()[:, motion.skeleton.pelvis][:, [0, 2]]
         return float(np.linalg.norm(pelvis[-1] - pelvis[0]))
 
-    assert travel(result.motion) == pytest.approx(travel(walk), rel=0.02)  # 859 of 956 cm before
-    assert _planted_toe_speed(result.motion) < 0.6 * _planted_toe_speed(walk)  # 3.6 against 8.7 cm/s
+    assert travel(result.motion) == pytest.approx(travel(walk), rel=0.02)  # 859 of 956 cm before (908 at 0.5)
+    if strength == 1.0:  # the feet are planted as far as the style acts
+        assert _planted_toe_speed(result.motion) < 0.6 * _planted_toe_speed(walk)  # 3.6 against 8.7 cm/s

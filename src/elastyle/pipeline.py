@@ -113,7 +113,11 @@ def transfer(
     fps = model.fps
     working = content.resample(fps)
     if working.num_frames < 2:
-        raise ClipTooShortError(f"{content_name}: {content.num_frames} frame(s); a transfer needs at least 2")
+        at_model_rate = f", {working.num_frames} at the model's {fps:g} fps" if content.fps != fps else ""
+        raise ClipTooShortError(
+            f"{content_name}: {content.num_frames} frame(s) at {content.fps:g} fps{at_model_rate}; a transfer "
+            "needs at least 2"
+        )
     libraries = [as_library(model, style, style_names, config.mirror_style, config.reverse_style)]
     patch_frames = min(requested_patch_frames(config, fps), libraries[0].longest_clip)
     if config.method in ("elastic", "rigid") and working.num_frames < patch_frames:
@@ -209,15 +213,16 @@ def transfer(
     # another, as far as the strength goes (plain decoding at strength 0 stays the model's reading)
     keep = keep_weights(tracks, shares, part_tracks, content.skeleton, grid, content_time, positions, kept)
     automatic = joint_set(set(range(content.skeleton.num_joints)) - set(kept.tolist()))
-    keep[:, automatic] *= np.clip(strength_out, 0.0, 1.0)[:, None]  # kept as far as the style acts
     legs = body_parts(content.skeleton).get("legs", np.zeros(0, dtype=np.int64))
     automatic_legs = joint_set(set(legs.tolist()) & set(automatic.tolist()))
     # the root follows the style's stride only where the legs take it: where they keep the content's action
-    # they keep its path too (legs that took a standing clip's statistics walked 10 % short)
+    # they keep its path too (legs that took a standing clip's statistics walked 10 % short). Read before
+    # the strength scales the keep: the clean-up itself is blended in by the strength
     legs_keep = (
         np.max(keep[:, automatic_legs], axis=1) if len(automatic_legs) else np.zeros(len(keep))
     )  # (N,)
     root_share = config.root_follows_legs * (1 - legs_keep)  # (N,)
+    keep[:, automatic] *= np.clip(strength_out, 0.0, 1.0)[:, None]  # kept as far as the style acts
     if config.cleanup:
         motion = blend_by_strength(motion, plant_feet(motion, root_share), clean_share)
     if np.any(keep > 0):
