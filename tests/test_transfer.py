@@ -377,3 +377,19 @@ def test_a_still_content_keeps_its_length(
     result = transfer(idle, style, model=model)
     assert result.motion.num_frames == idle.num_frames
     assert {p["stretch"] for p in result.explain["styles"][0]["patches"]} == {1.0}
+
+
+@pytest.mark.parametrize(("fps", "frames"), [(60.0, 150), (120.0, 302), (24.0, None)])
+def test_content_at_another_frame_rate_keeps_moving_to_its_last_frame(
+    model, content: Motion, style_clip: Motion, fps: float, frames: int | None
+) -> None:  # type: ignore[no-untyped-def]
+    """The model-rate copy of a content at another rate ends at the content's last frame, so the output does
+    too: a 60 fps walk's joints moved 126 cm/s, then 5 on the last step (its end lay past the copy's,
+    where the styled pose was held), and at 24 fps a strength ending at 0 missed the last frame by 4 cm."""
+    resampled = content.resample(fps)
+    clip = Motion(resampled.skeleton, resampled.rotations[:frames], resampled.translations[:frames], fps)
+    out = transfer(clip, style_clip, model=model).motion
+    speeds = np.linalg.norm(np.diff(out.positions(), axis=0), axis=-1).mean(axis=1)  # (T - 1,)
+    assert speeds[-1] > 0.6 * np.median(speeds[-10:-1]), speeds[-10:]
+    fading = transfer(clip, style_clip, model=model, strength=f"0:1,{clip.duration_s / 2:.2f}:0").motion
+    assert np.abs(fading.positions()[-1] - clip.positions()[-1]).max() < 1e-6

@@ -111,7 +111,7 @@ def transfer(
         if note is not None:
             _say(notes, note)
     fps = model.fps
-    working = content.resample(fps)
+    working, per_model_frame = content.resample_to_end(fps)  # ending at the content's last frame
     if working.num_frames < 2:
         at_model_rate = f", {working.num_frames} at the model's {fps:g} fps" if content.fps != fps else ""
         raise ClipTooShortError(
@@ -195,7 +195,7 @@ def transfer(
         part_tracks.append((joints, track))
     _check_finite(styled, "decoding", content_name)
     positions, content_frames = output_frames(
-        content_time, fps, content.fps, content.num_frames, config.timing
+        content_time, per_model_frame, content.num_frames, config.timing
     )
     strength_out = config.strength_schedule.at(content_frames / content.fps)  # (N,)
     # each clip read once at the output's frames: the decoded styled clip, the content, and for residual

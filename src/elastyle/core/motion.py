@@ -89,6 +89,16 @@ class Motion:
         rotations = slerp_resample(self.rotations, frame_times)
         return Motion(self.skeleton, rotations, translations, self.fps if fps is None else fps)
 
+    def resample_to_end(self, fps: float) -> tuple[Motion, float]:
+        """The clip at about `fps`, its frames spread evenly from its first frame to its very last (so a
+        clip read at the other rate ends where this one does), and how many of this clip's frames one of
+        the new clip's spans (exactly this clip's frame rate over `fps` where it comes out even)."""
+        if abs(fps - self.fps) < 1e-9 or self.num_frames < 2:
+            return self.resample(fps), self.fps / fps
+        num_frames = max(2, int(round((self.num_frames - 1) * fps / self.fps)) + 1)
+        frame_times = np.linspace(0.0, self.num_frames - 1, num_frames)  # (N,) source frame indices
+        return self.sample(frame_times, fps), (self.num_frames - 1) / (num_frames - 1)
+
     def resample(self, fps: float) -> Motion:
         """The same clip at another frame rate; the duration stays (up to one frame)."""
         if abs(fps - self.fps) < 1e-9:

@@ -33,28 +33,27 @@ def decode_plain(model: StyleModel, latents: FloatArray, root: RootPath, smooth_
 
 
 def output_frames(
-    content_time: FloatArray, model_fps: float, content_fps: float, content_frames: int, timing: str
+    content_time: FloatArray, per_model_frame: float, content_frames: int, timing: str
 ) -> tuple[FloatArray, FloatArray]:
     """Where each output frame at the content's frame rate reads: its position on the model-rate output
     timeline (N,) and its content frame (N,) in the content's own frames.
 
-    content_time: (T_out,) content frame (model rate) of each model-rate output frame. content_frames: the
-    content's own frame count (its end may fall up to half a model frame past the model-rate clip's, which
-    the output still reaches, at the timeline's last rate). timing "style": the output keeps its own clock;
-    "content": one output frame per content frame (the style's manner on the content's clock).
+    content_time: (T_out,) content frame (model rate) of each model-rate output frame, the last at the
+    model-rate content's last (`steps.timeline.output_content_times`). per_model_frame: the content's own
+    frames per model-rate frame (`Motion.resample_to_end`: the model-rate content ends at the content's
+    last frame, so the output's last frame reads it). timing "style": the output keeps its own clock, its
+    frames spread evenly over the model-rate timeline; "content": one output frame per content frame (the
+    style's manner on the content's clock).
     """
-    scale = content_fps / model_fps
     frames = np.arange(len(content_time), dtype=np.float64)
     last = len(content_time) - 1
     if timing == "content":
         own = np.arange(content_frames, dtype=np.float64)
-        return np.interp(own / scale, content_time, frames), own
-    slope = content_time[-1] - content_time[-2] if last > 0 else 1.0  # content frames per output frame
-    extra = ((content_frames - 1) / scale - content_time[-1]) / max(slope, 1e-9)  # output frames past the end
-    count = max(1, int(round((last + extra) * scale)) + 1)
-    positions = np.arange(count, dtype=np.float64) / scale
-    read = np.interp(positions, frames, content_time) + np.maximum(positions - last, 0.0) * slope
-    return np.minimum(positions, last), np.minimum(read * scale, content_frames - 1)
+        return np.interp(own / per_model_frame, content_time, frames), own
+    count = max(1, int(round(last * per_model_frame)) + 1)
+    positions = np.linspace(0.0, last, count) if count > 1 else np.zeros(1)
+    read = np.interp(positions, frames, content_time) * per_model_frame
+    return positions, np.minimum(read, content_frames - 1)
 
 
 def compose_residual(
