@@ -261,9 +261,7 @@ def transfer(
                 # gaits, whose stance feet slide: pinned again as far as they keep it, the root left where
                 # the clean-up put it (moving it again would shift the whole path), and kept above the ground
                 pinned = plant_feet(motion, 0.0, also, foot_floor)
-                motion = blend_by_strength(
-                    motion, pinned, np.max(keep[:, automatic_legs], axis=1) * clean_share
-                )
+                motion = blend_by_strength(motion, pinned, legs_keep * clean_share)  # the strength once
                 motion = blend_by_strength(motion, lift_to_ground(motion), (keep > 0) * clean_share[:, None])
             motion = motion.with_joints(content_at, kept, translations=True)  # kept parts stay the content's
     _check_finite(motion, "foot clean-up" if config.cleanup else "decoding", content_name)

@@ -74,9 +74,8 @@ def body_parts(skeleton: Skeleton) -> dict[str, IntArray]:
     return {name: joints for name, joints in found.items() if len(joints)}
 
 
-STANDING_DEGREES = (
-    45.0  # a rest pose stands where both legs point within this of straight down from the spine
-)
+# a rest pose stands where both legs point within this many degrees of straight down from the spine
+STANDING_DEGREES = 45.0
 
 
 def rest_pose_stands(skeleton: Skeleton) -> bool:

@@ -99,8 +99,7 @@ class StyleModel:
                 f"note: {what}: joint names differ from the model's ({renamed[0]} for {renamed[1]}, ...), but "
                 "its hierarchy, limbs and rest pose are the model's: read joint by joint in that order"
             )
-        on_hierarchy = with_added_roots(self.skeleton, motion)
-        if on_hierarchy is not None:
+        if with_added_roots(self.skeleton, motion) is not None:
             added = self.skeleton.num_joints - motion.skeleton.num_joints
             return (
                 f"note: {what}: the model's skeleton without {', '.join(self.skeleton.names[:added])} above "

@@ -85,10 +85,10 @@ def sustained_turning(actions: FloatArray, clip_starts: IntArray, fps: float) ->
     return turning
 
 
-STILL_LEGS_S = (
-    0.1  # a frame is still where the pelvis travels, every hand moves and every foot rises or falls
-)
-STILL_TURNING = 0.2  # slower than this (leg lengths per second), and the body turns slower than this (rad/s)
+# a frame is still where the pelvis travels, every hand moves and every foot rises or falls slower than
+# STILL_LEGS_S (leg lengths per second), and the body turns slower than STILL_TURNING (rad/s)
+STILL_LEGS_S = 0.1
+STILL_TURNING = 0.2
 
 
 def still_frames(actions: FloatArray, skeleton: Skeleton, fps: float) -> BoolArray:
