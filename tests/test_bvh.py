@@ -165,3 +165,32 @@ def test_euler_conversions_match_scipy(order: str) -> None:
         Rotation.from_euler(order, back, degrees=True).as_matrix(), reference.as_matrix(), atol=1e-9
     )
     np.testing.assert_allclose(back[3:], angles[3:], atol=1e-7)
+
+
+def test_a_skeleton_listed_out_of_file_order_writes_its_own_motion(
+    three_channel_bvh: Path, tmp_path: Path
+) -> None:
+    """A skeleton built in code may list a joint after joints of another branch: the file's hierarchy is
+    depth first, and each joint's channels go with it, so the clip reads back in the same pose."""
+    from elastyle.core.motion import Motion
+    from elastyle.core.skeleton import Skeleton
+
+    motion = read_bvh(three_channel_bvh)[0]
+    skeleton = motion.skeleton
+    tip = skeleton.num_joints  # a joint below the spine, listed last, after the legs' branches
+    extended = Skeleton(
+        (*skeleton.names, "Tip"), np.append(skeleton.parents, skeleton.index("spine")),
+        np.vstack([skeleton.offsets, [0.0, 3.0, 0.0]]), np.vstack([skeleton.end_sites, [[0.0, 1.0, 0.0]]]),
+    )  # fmt: skip
+    turned = np.zeros((motion.num_frames, 1, 3))
+    turned[:, 0, 0] = 0.5
+    clip = Motion(
+        extended, np.concatenate([motion.rotations, turned], axis=1),
+        np.concatenate([motion.translations, np.broadcast_to([[[0.0, 3.0, 0.0]]], turned.shape)], axis=1), motion.fps,
+    )  # fmt: skip
+    write_bvh(tmp_path / "out.bvh", clip)
+    back = read_bvh(tmp_path / "out.bvh")[0]
+    order = [back.skeleton.index(name) for name in extended.names]
+    assert back.skeleton.names != extended.names  # the file lists Tip right after the spine
+    np.testing.assert_allclose(back.positions()[:, order], clip.positions(), atol=1e-5)
+    np.testing.assert_allclose(back.rotations[:, order[tip]], turned[:, 0], atol=1e-6)

@@ -26,9 +26,9 @@ def bvh_text(motion: Motion, layout: BvhLayout | None = None) -> str:
         raise ValueError(f"layout has {len(layout.channels)} joints, the clip {skeleton.num_joints}")
     out = io.StringIO()
     out.write("HIERARCHY\n")
-    _write_joint(out, skeleton, layout, 0, 0)
+    written = _write_joint(out, skeleton, layout, 0, 0)  # the joints in file order
     out.write(f"MOTION\nFrames: {motion.num_frames}\nFrame Time: {1.0 / motion.fps:.7f}\n")
-    out.write(_format_rows(_channel_values(motion, layout)))
+    out.write(_format_rows(_channel_values(motion, layout, written)))
     return out.getvalue()
 
 
@@ -88,8 +88,12 @@ def refuse_non_finite(path: str | os.PathLike[str], motion: Motion) -> None:
         raise BvhError(str(path), "the clip holds NaN or infinite values; nothing written")
 
 
-def _write_joint(out: io.StringIO, skeleton: Skeleton, layout: BvhLayout, joint: int, depth: int) -> None:
-    """The hierarchy below `joint`, depth first, with an explicit stack (any depth, no recursion limit)."""
+def _write_joint(
+    out: io.StringIO, skeleton: Skeleton, layout: BvhLayout, joint: int, depth: int
+) -> list[int]:
+    """The hierarchy below `joint`, depth first, with an explicit stack (any depth, no recursion limit); the
+    joints in the order written (a skeleton built in code may list its joints in another)."""
+    written: list[int] = []
     stack: list[tuple[int, int, bool]] = [(joint, depth, True)]  # (joint, depth, opening)
     while stack:
         joint, depth, opening = stack.pop()
@@ -100,6 +104,7 @@ def _write_joint(out: io.StringIO, skeleton: Skeleton, layout: BvhLayout, joint:
                 out.write(f"{indent}\t\tOFFSET {_format_vector(skeleton.end_sites[joint])}\n{indent}\t}}\n")
             out.write(f"{indent}}}\n")
             continue
+        written.append(joint)
         keyword = "ROOT" if skeleton.parents[joint] < 0 else "JOINT"
         out.write(f"{indent}{keyword} {skeleton.names[joint]}\n{indent}{{\n")
         out.write(f"{indent}\tOFFSET {_format_vector(skeleton.offsets[joint])}\n")
@@ -107,19 +112,22 @@ def _write_joint(out: io.StringIO, skeleton: Skeleton, layout: BvhLayout, joint:
         out.write(f"{indent}\tCHANNELS {len(channels)}{''.join(' ' + c for c in channels)}\n")
         stack.append((joint, depth, False))
         stack.extend((child, depth + 1, True) for child in reversed(list(skeleton.children(joint))))
+    return written
 
 
 def _format_vector(vector: FloatArray) -> str:
     return " ".join(f"{v:.6g}" for v in vector)
 
 
-def _channel_values(motion: Motion, layout: BvhLayout) -> FloatArray:
-    """Frame data (T, total channels) in the layout's channel order; angles continuous along time."""
+def _channel_values(motion: Motion, layout: BvhLayout, written: list[int]) -> FloatArray:
+    """Frame data (T, total channels) of the joints in `written` order (the file's), each in its layout's
+    channel order; angles continuous along time."""
     values = np.zeros((motion.num_frames, sum(len(c) for c in layout.channels)))
-    positions, by_order = channel_columns(layout.channels)
-    for joint, axis, column in positions:
-        values[:, column] = motion.translations[:, joint, axis]
-    for order, (joints, columns) in by_order.items():  # every joint of one Euler order at once
+    positions, by_order = channel_columns([layout.channels[joint] for joint in written])
+    for at, axis, column in positions:
+        values[:, column] = motion.translations[:, written[at], axis]
+    for order, (at_joints, columns) in by_order.items():  # every joint of one Euler order at once
+        joints = [written[at] for at in at_joints]
         angles_deg = rotvec_to_euler(order, motion.rotations[:, joints])  # (T, J_order, 3)
         values[:, np.array(columns)] = np.unwrap(angles_deg, period=360.0, axis=0)
     return values
