@@ -344,6 +344,72 @@ def test_the_models_skeleton_without_its_static_root_transfers_as_it_does(
     assert read_bvh(out)[0].skeleton.names == walk.skeleton.names[1:]
 
 
+def _with_fingers(motion: Motion, prefix: str = "") -> Motion:
+    """The clip with two three-joint fingers on each hand and the head's tip as a joint (listed after every
+    other joint, as a skeleton built in code may list them), the fingers curling back and forth, and every
+    joint name behind `prefix` (an exporter's namespace)."""
+    skeleton = motion.skeleton
+    names, parents = list(skeleton.names), list(skeleton.parents)
+    offsets, ends = list(skeleton.offsets), list(skeleton.end_sites)
+    rotations = list(motion.rotations.transpose(1, 0, 2))
+    translations = list(motion.translations.transpose(1, 0, 2))
+    curl = np.zeros((motion.num_frames, 3))
+    curl[:, 2] = 0.3 * np.sin(np.pi * np.arange(motion.num_frames) / motion.fps)
+    for joint in map(skeleton.index, ("Hand_L", "Hand_R", "Head")):
+        tip = skeleton.end_sites[joint]
+        ends[joint] = np.full(3, np.nan)  # the joints below take the End Site's place
+        own = skeleton.names[joint]
+        chain = (
+            [f"{own}_Tip"]
+            if own == "Head"
+            else [f"{own}_{f}{k}" for f in ("Index", "Thumb") for k in (1, 2, 3)]
+        )
+        for k, name in enumerate(chain):
+            parents.append(joint if k % 3 == 0 else len(names) - 1)
+            names.append(name)
+            offsets.append(tip if k % 3 == 0 else 0.3 * tip)
+            ends.append(0.3 * tip if k % 3 == 2 else np.full(3, np.nan))
+            rotations.append(np.zeros_like(curl) if own == "Head" else curl)
+            translations.append(np.broadcast_to(offsets[-1], curl.shape).copy())
+    extended = Skeleton(
+        tuple(prefix + n for n in names), np.array(parents), np.array(offsets), np.array(ends)
+    )
+    return Motion(extended, np.stack(rotations, axis=1), np.stack(translations, axis=1), motion.fps)
+
+
+@pytest.mark.parametrize("prefix", ["", "Character1:"])
+def test_joints_the_model_lacks_below_its_own_are_carried_from_the_content(
+    walk: Motion, dataset_clips: list[ClipRef], tmp_path: Path, prefix: str
+) -> None:
+    """Fingers and a head tip below the model's joints (names in a namespace or not): the model's joints
+    transfer exactly as on the model's skeleton, the others keep the content's motion, and strength 0 is
+    the content on every joint; the same from files, whose hierarchy lists the fingers below their hands."""
+    from elastyle.pipeline import transfer
+
+    model = load_model()
+    style = clip_named(dataset_clips, "dataset-2_walk_elderly_010").read()[0]
+    own = transfer(walk, style, model=model).motion
+    fingered = _with_fingers(walk, prefix)
+    result = transfer(fingered, _with_fingers(style, prefix), model=model)
+    assert result.motion.skeleton.names == fingered.skeleton.names  # on the clip's own skeleton
+    model_joints = [fingered.skeleton.index(prefix + name) for name in walk.skeleton.names]
+    np.testing.assert_allclose(result.motion.positions()[:, model_joints], own.positions(), atol=1e-9)
+    assert any("13 joint(s) the model does not have" in note for note in result.explain["notes"])
+    still = transfer(fingered, style, model=model, strength=0).motion
+    assert np.abs(still.positions() - fingered.positions()).max() < 1e-9
+    # on the command line
+    content, style_file, out = tmp_path / "content.bvh", tmp_path / "style.bvh", tmp_path / "out.bvh"
+    write_bvh(content, fingered)
+    write_bvh(style_file, _with_fingers(style, prefix))
+    done = _cli("transfer", str(content), "--style", str(style_file), "-o", str(out), "--no-cache")
+    assert done.returncode == 0 and "the model does not have" in done.stderr, done.stderr
+    written = read_bvh(out)[0]
+    assert written.skeleton.names == read_bvh(content)[0].skeleton.names
+    finger = written.skeleton.index(prefix + "Hand_L_Index2")
+    curl = written.rotations[:, finger, 2]
+    assert 0.25 < curl.max() <= 0.3 + 1e-6 and np.abs(written.rotations[:, finger, :2]).max() < 1e-6
+
+
 def test_a_renamed_skeleton_whose_sides_or_rest_pose_differ_is_refused(walk: Motion) -> None:
     from elastyle import SkeletonMismatchError
     from elastyle.pipeline import transfer

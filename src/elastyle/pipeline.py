@@ -35,7 +35,6 @@ from elastyle.core.body import guessed_unit_note, no_legs_note
 from elastyle.core.motion import Motion
 from elastyle.core.parts import body_parts, joint_set, parse_parts, part_joints, sides_guessed
 from elastyle.core.resample import interpolate_rows
-from elastyle.core.roots import without_added_roots
 from elastyle.core.threads import one_blas_thread
 from elastyle.errors import ClipTooShortError, ConfigError, ResultError
 from elastyle.model.depth import depth_warning, reconstruction_error_cm
@@ -98,8 +97,8 @@ def transfer(
     _check_clip_type(content, "content")
     model = model or load_model()
     renamed = model.check_clip(content, content_name)
-    own = content.skeleton  # the output's: the content's own
-    content = model.on_model_hierarchy(content)  # a static root its exporter dropped, added at rest
+    original = content  # the output is on its skeleton
+    content = model.on_model_hierarchy(content)  # its joints the model has, and a dropped static root added
     given, (content, size) = content, model.at_model_size(content)  # transferred at the model's size
     notes: list[str] = []  # every note and warning printed, also kept in the explain record
     if renamed is not None:
@@ -282,7 +281,7 @@ def transfer(
         translations[exact] = given_at.translations[exact]
         translations[:, kept] = given_at.translations[:, kept]
         motion = Motion(given.skeleton, motion.rotations, translations, motion.fps)
-    motion = without_added_roots(motion, own)  # on the content's own skeleton
+    motion = model.on_clip_hierarchy(motion, frames_of(original, content_frames))  # on the content's skeleton
     record["output_frames"] = motion.num_frames  # as written, at the content's frame rate
     record["output_fps"] = motion.fps
     record["content_reconstruction_cm"] = round(error_cm, 3)

@@ -17,8 +17,9 @@ from typing import Any
 import numpy as np
 
 from elastyle.core.body import at_size_of, same_rest_pose, same_structure
+from elastyle.core.extra_joints import model_joints_in, with_extra_joints, without_extra_joints
 from elastyle.core.motion import Motion
-from elastyle.core.roots import with_added_roots
+from elastyle.core.roots import with_added_roots, without_added_roots
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import smooth
 from elastyle.errors import ModelError, SkeletonMismatchError
@@ -57,9 +58,22 @@ class StyleModel:
         return at_size_of(motion, self.skeleton)
 
     def on_model_hierarchy(self, motion: Motion) -> Motion:
-        """The clip with the joints above its root that the model has and it lacks added at rest
-        (`core.roots.with_added_roots`: a static root some exporters drop); any other clip as it is."""
+        """The clip on the model's joints: joints the model lacks below its own dropped
+        (`core.extra_joints`: fingers, props, tips), and the joints above its root that the model has and
+        it lacks added at rest (`core.roots`: a static root some exporters drop); any other clip as it is."""
+        joints = model_joints_in(self.skeleton, motion.skeleton)
+        if joints is not None:
+            motion = without_extra_joints(motion, joints)
         return with_added_roots(self.skeleton, motion) or motion
+
+    def on_clip_hierarchy(self, motion: Motion, clip_at: Motion) -> Motion:
+        """An output on the model's hierarchy (`on_model_hierarchy` of the clip) back on the clip's own
+        skeleton: the added root joints dropped and the clip's other joints as `clip_at`, the clip at the
+        output's N moments, has them."""
+        joints = model_joints_in(self.skeleton, clip_at.skeleton)
+        own = clip_at.skeleton if joints is None else without_extra_joints(clip_at, joints).skeleton
+        motion = without_added_roots(motion, own)
+        return motion if joints is None else with_extra_joints(motion, clip_at, joints)
 
     def normalise(self, features: FloatArray) -> FloatArray:
         return (features - self.feature_mean) / self.feature_std
@@ -81,6 +95,16 @@ class StyleModel:
         """None for a clip of the model's skeleton (its joints and rest pose); a note for one of the same
         skeleton under other joint names (`core.body.same_structure`: read by the hierarchy); otherwise a
         `SkeletonMismatchError` naming the clip, what differs, and how to get a model for it."""
+        joints = model_joints_in(self.skeleton, motion.skeleton)
+        if joints is not None:  # the model's joints and more below them: read on the model's alone
+            extra = [name for joint, name in enumerate(motion.skeleton.names) if joint not in joints]
+            also = self.check_clip(without_extra_joints(motion, joints), what)
+            listed = ", ".join(extra[:4]) + (", ..." if len(extra) > 4 else "")
+            return (
+                f"note: {what}: {len(extra)} joint(s) the model does not have ({listed}): the transfer reads "
+                f"the model's joints and the output carries these as the clip performs them"
+                + (f"; {also.removeprefix(f'note: {what}: ')}" if also else "")
+            )
         if self.skeleton.same_as(motion.skeleton):
             if same_rest_pose(self.skeleton, motion.skeleton):
                 return None

@@ -1,0 +1,73 @@
+"""Clips of a model's skeleton with joints the model lacks: fingers, props, tips exported as joints. Every
+model joint is in the clip under its own name (or the same name after a `namespace:` prefix) below the
+same parent, and the clip's other joints hang below model joints, so the model's joints rotate as on the
+model's skeleton. The transfer reads the model's joints alone; the output carries the others as the content
+performs them, at the output's moments.
+
+    model_joints_in       (J_model,) each model joint's index in the clip, or None
+    without_extra_joints  the clip on the model's joints alone
+    with_extra_joints     an output on the model's joints, back on the clip's whole skeleton
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from elastyle.core.motion import Motion
+from elastyle.core.skeleton import Skeleton
+from elastyle.types import IntArray
+
+
+def _bare(name: str) -> str:
+    """A joint name without its namespace (`Character1:Hips` -> `Hips`)."""
+    return name.rsplit(":", 1)[-1]
+
+
+def model_joints_in(model: Skeleton, clip: Skeleton) -> IntArray | None:
+    """(J',) the clip index of each model joint the clip has, in the model's order, where the clip is the
+    model's skeleton (less the static joints above its root that some exporters drop: `core.roots`) with
+    joints added below model joints; None for any other clip, and for one without such added joints.
+
+    Names match exactly, or else without namespaces. Each matched joint's parent in the clip must be the
+    match of its model parent (no joint inserted between two of the model's), and the model's joints the
+    clip lacks must be a chain above its root."""
+    for key in (str, _bare):
+        where = {key(name): joint for joint, name in enumerate(clip.names)}
+        if len(where) < clip.num_joints:
+            continue  # two joints of one name: no reading by name
+        found = [where.get(key(name)) for name in model.names]
+        missing = next((at for at, joint in enumerate(found) if joint is not None), len(found))  # leading
+        if missing > model.pelvis or None in found[missing:]:
+            continue  # lacks more than a static chain above the root
+        joints = np.array(found[missing:], dtype=np.int64)
+        index = {int(joint): at for at, joint in enumerate(joints)}
+        parents = [int(p) - missing if p >= missing else -1 for p in model.parents[missing:]]
+        if all(index.get(int(clip.parents[joint]), -1) == parent for joint, parent in zip(joints, parents)):
+            return joints if len(joints) < clip.num_joints else None
+    return None
+
+
+def without_extra_joints(motion: Motion, joints: IntArray) -> Motion:
+    """The clip (T, J frames and joints) on its joints `joints` (J',) alone, in that order: their local
+    rotations and translations unchanged, as the model reads them."""
+    skeleton = motion.skeleton
+    index = {int(joint): at for at, joint in enumerate(joints)}
+    parents = np.array([index.get(int(skeleton.parents[joint]), -1) for joint in joints], dtype=np.int64)
+    ends = skeleton.end_sites[joints].copy()
+    for at, joint in enumerate(joints):  # a joint whose children are all extra: its first child as its tip
+        children = np.flatnonzero(skeleton.parents == joint)
+        if np.isnan(ends[at, 0]) and len(children) and not np.any(parents == at):
+            ends[at] = skeleton.offsets[children[0]]
+    subset = Skeleton(
+        tuple(skeleton.names[j] for j in joints), parents, skeleton.offsets[joints], ends, skeleton.unit_cm
+    )
+    return Motion(subset, motion.rotations[:, joints], motion.translations[:, joints], motion.fps)
+
+
+def with_extra_joints(motion: Motion, clip_at: Motion, joints: IntArray) -> Motion:
+    """An output on the clip's joints `joints` (N, J' frames and joints) on the clip's whole skeleton: the
+    other joints as `clip_at` (the clip at the output's N moments) has them."""
+    rotations, translations = clip_at.rotations.copy(), clip_at.translations.copy()
+    rotations[:, joints] = motion.rotations
+    translations[:, joints] = motion.translations
+    return Motion(clip_at.skeleton, rotations, translations, motion.fps)
