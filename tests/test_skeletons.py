@@ -410,6 +410,27 @@ def test_joints_the_model_lacks_below_its_own_are_carried_from_the_content(
     assert 0.25 < curl.max() <= 0.3 + 1e-6 and np.abs(written.rotations[:, finger, :2]).max() < 1e-6
 
 
+@pytest.mark.parametrize("rename", [CMU.get, lambda name: f"Character1:{name}"], ids=["cmu", "namespace"])
+def test_the_models_skeleton_without_its_root_and_under_other_names_transfers_as_it_does(
+    walk: Motion, dataset_clips: list[ClipRef], rename: Any
+) -> None:
+    """Rootless (Hips the BVH ROOT) and renamed at once: read with the root added, by the hierarchy."""
+    from elastyle.pipeline import transfer
+
+    def exported(motion: Motion) -> Motion:
+        rootless = _without_root(motion)
+        skeleton = replace(rootless.skeleton, names=tuple(map(rename, rootless.skeleton.names)))
+        return Motion(skeleton, rootless.rotations, rootless.translations, rootless.fps)
+
+    model = load_model()
+    style = clip_named(dataset_clips, "dataset-2_walk_active_010").read()[0]
+    own = transfer(walk, style, model=model).motion
+    result = transfer(exported(walk), exported(style), model=model)
+    assert result.motion.skeleton.names == exported(walk).skeleton.names
+    np.testing.assert_allclose(result.motion.positions(), own.positions()[:, 1:], atol=1e-9)
+    assert any("without joint_Root above" in note for note in result.explain["notes"])
+
+
 def test_a_renamed_skeleton_whose_sides_or_rest_pose_differ_is_refused(walk: Motion) -> None:
     from elastyle import SkeletonMismatchError
     from elastyle.pipeline import transfer

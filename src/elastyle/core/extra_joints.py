@@ -14,13 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 from elastyle.core.motion import Motion
-from elastyle.core.skeleton import Skeleton
+from elastyle.core.skeleton import Skeleton, bare_name
 from elastyle.types import IntArray
-
-
-def _bare(name: str) -> str:
-    """A joint name without its namespace (`Character1:Hips` -> `Hips`)."""
-    return name.rsplit(":", 1)[-1]
 
 
 def model_joints_in(model: Skeleton, clip: Skeleton) -> IntArray | None:
@@ -31,7 +26,7 @@ def model_joints_in(model: Skeleton, clip: Skeleton) -> IntArray | None:
     Names match exactly, or else without namespaces. Each matched joint's parent in the clip must be the
     match of its model parent (no joint inserted between two of the model's), and the model's joints the
     clip lacks must be a chain above its root."""
-    for key in (str, _bare):
+    for key in (str, bare_name):
         where = {key(name): joint for joint, name in enumerate(clip.names)}
         if len(where) < clip.num_joints:
             continue  # two joints of one name: no reading by name

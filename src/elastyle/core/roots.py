@@ -10,20 +10,21 @@ from __future__ import annotations
 
 import numpy as np
 
-from elastyle.core.body import same_rest_pose
+from elastyle.core.body import same_rest_pose, same_structure
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import from_matrix, to_matrix
-from elastyle.core.skeleton import Skeleton
+from elastyle.core.skeleton import Skeleton, bare_name
 
 
 def with_added_roots(model: Skeleton, motion: Motion) -> Motion | None:
     """The clip on the model's hierarchy where its skeleton is the model's without the model's first k
-    joints, a chain above the clip's root and above the model's pelvis (the same names below, the same
-    hierarchy, the same rest pose): those joints added at the origin, unrotated and without offsets, so every
-    joint of the clip stays where it was. None for any other skeleton."""
+    joints, a chain above the clip's root and above the model's pelvis (below it the same hierarchy and
+    rest pose, under the same names, the same in another namespace, or others: `core.body.same_structure`):
+    those joints added at the origin under the model's names, unrotated and without offsets, so every joint
+    of the clip stays where it was. None for any other skeleton."""
     clip = motion.skeleton
     added = model.num_joints - clip.num_joints
-    if added <= 0 or added > model.pelvis or model.names[added:] != clip.names:
+    if added <= 0 or added > model.pelvis:
         return None
     chain = np.arange(-1, added - 1)  # each added joint the child of the one before
     below = np.where(clip.parents >= 0, clip.parents + added, added - 1)
@@ -31,10 +32,12 @@ def with_added_roots(model: Skeleton, motion: Motion) -> Motion | None:
         return None
     zeros = np.zeros((added, 3))
     skeleton = Skeleton(
-        model.names, model.parents, np.concatenate([zeros, clip.offsets]),
+        (*model.names[:added], *clip.names), model.parents, np.concatenate([zeros, clip.offsets]),
         np.concatenate([np.full((added, 3), np.nan), clip.end_sites]), clip.unit_cm,
     )  # fmt: skip
-    if not same_rest_pose(model, skeleton):
+    # the same names, in a namespace or not
+    alike = list(map(bare_name, clip.names)) == list(map(bare_name, model.names[added:]))
+    if not (same_rest_pose(model, skeleton) if alike else same_structure(model, skeleton)):
         return None
     frames = motion.num_frames
     rotations = np.concatenate([np.zeros((frames, added, 3)), motion.rotations], axis=1)

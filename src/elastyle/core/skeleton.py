@@ -157,6 +157,11 @@ class Skeleton:
         )
 
 
+def bare_name(name: str) -> str:
+    """A joint name without an exporter's namespace (`Character1:Hips` -> `Hips`)."""
+    return name.rsplit(":", 1)[-1]
+
+
 def _opposite_side(word: str) -> str:
     """'L' -> 'R', 'left' -> 'right', 'Right' -> 'Left', keeping the letter case."""
     opposite = _OPPOSITE_SIDE[word.lower()]

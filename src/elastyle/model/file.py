@@ -98,12 +98,12 @@ class StyleModel:
         joints = model_joints_in(self.skeleton, motion.skeleton)
         if joints is not None:  # the model's joints and more below them: read on the model's alone
             extra = [name for joint, name in enumerate(motion.skeleton.names) if joint not in joints]
-            also = self.check_clip(without_extra_joints(motion, joints), what)
             listed = ", ".join(extra[:4]) + (", ..." if len(extra) > 4 else "")
-            return (
+            return _also(
                 f"note: {what}: {len(extra)} joint(s) the model does not have ({listed}): the transfer reads "
-                f"the model's joints and the output carries these as the clip performs them"
-                + (f"; {also.removeprefix(f'note: {what}: ')}" if also else "")
+                "the model's joints and the output carries these as the clip performs them",
+                self.check_clip(without_extra_joints(motion, joints), what),
+                what,
             )
         if self.skeleton.same_as(motion.skeleton):
             if same_rest_pose(self.skeleton, motion.skeleton):
@@ -123,11 +123,14 @@ class StyleModel:
                 f"note: {what}: joint names differ from the model's ({renamed[0]} for {renamed[1]}, ...), but "
                 "its hierarchy, limbs and rest pose are the model's: read joint by joint in that order"
             )
-        if with_added_roots(self.skeleton, motion) is not None:
+        rooted = with_added_roots(self.skeleton, motion)
+        if rooted is not None:
             added = self.skeleton.num_joints - motion.skeleton.num_joints
-            return (
+            return _also(
                 f"note: {what}: the model's skeleton without {', '.join(self.skeleton.names[:added])} above "
-                f"{motion.skeleton.names[0]}: read with it added at rest, and written without it"
+                f"{motion.skeleton.names[0]}: read with it added at rest, and written without it",
+                self.check_clip(rooted, what),  # under other names too
+                what,
             )
         try:
             self.skeleton.check_same(motion.skeleton, "the model", what)
@@ -137,6 +140,11 @@ class StyleModel:
                 "model.npz --recipe shipped --minutes 20' and pass it with --model model.npz"
             ) from None
         return None  # check_same passed: the same names in the same hierarchy
+
+
+def _also(note: str, other: str | None, what: str) -> str:
+    """One note on a clip followed by another on it (`check_clip`'s), if any, without its repeated prefix."""
+    return note if other is None else f"{note}; {other.removeprefix(f'note: {what}: ')}"
 
 
 def save_model(path: str | os.PathLike[str], model: StyleModel, force: bool = False) -> None:
