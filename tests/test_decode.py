@@ -41,6 +41,34 @@ def test_strength_acts_smoothly_from_zero(model, content: Motion, style_clip: Mo
     assert moves[0] < 0.25 * moves[2]
 
 
+@pytest.mark.parametrize(
+    ("content_stem", "style_stem"),
+    [("wave-right-hand_normal_005", "walk_masculine_005"), ("walk_normal_005", "walk_masculine_005")],
+)
+def test_a_partial_strength_keeps_the_contents_action_and_plants_the_feet(
+    model, dataset_clips, content_stem: str, style_stem: str
+) -> None:  # type: ignore[no-untyped-def]
+    """Between strength 0 and 1 the output lies between the two ends: a standing wave given a walk's style
+    keeps its feet still and waves about as high as at either end (its legs and arm keep the content's
+    action at any strength), and a walk's planted feet slide no more than at full strength."""
+    from elastyle.eval.metrics import floor_skating_cm_s
+    from tests.conftest import clip_named
+
+    content = clip_named(dataset_clips, f"dataset-2_{content_stem}").read()[0]
+    style = clip_named(dataset_clips, f"dataset-2_{style_stem}").read()[0]
+    skeleton = content.skeleton
+    toes, hand = [skeleton.index("Toes_L"), skeleton.index("Toes_R")], skeleton.index("Hand_R")
+    ends = {s: transfer(content, style, model=model, strength=s).motion for s in (0.0, 1.0)}
+    half = transfer(content, style, model=model, strength=0.5).motion
+    if content_stem.startswith("wave"):
+        steps = np.linalg.norm(np.diff(half.positions()[:, toes][:, :, [0, 2]], axis=0), axis=-1)
+        assert steps.sum() < 5.0  # cm over the clip (at strength 0.5 before: 310)
+        peaks = [motion.positions()[:, hand, 1].max() for motion in (ends[0.0], half, ends[1.0])]
+        assert peaks[1] >= min(peaks[0], peaks[2]) - 1.0  # cm
+    else:
+        assert floor_skating_cm_s(half) <= floor_skating_cm_s(ends[1.0]) + 1.0  # cm/s
+
+
 def test_plain_decoding_differs_and_is_the_reports(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
     plain = transfer(content, style_clip, model=model, decode="plain").motion
     residual = transfer(content, style_clip, model=model).motion

@@ -59,6 +59,8 @@ from elastyle.steps.track import requested_patch_frames, style_track
 from elastyle.types import FloatArray
 
 StyleInput = Motion | Sequence[Motion] | StyleLibrary
+# with residual decoding the foot clean-up acts in full from this strength on, and in proportion below it
+CLEAN_FULL_STRENGTH = 0.25
 log = logging.getLogger(__name__)
 
 
@@ -207,21 +209,28 @@ def transfer(
     else:
         base_at = frames_of(_decoded(model, content_on_grid, grid, content_time, root_out, config), positions)
         motion = compose_residual(styled_at, base_at, content_at, strength_out, config.residual_smooth_s)
-        clean_share = strength_out  # the feet planted as far as the style acts
+        # the feet planted in full from a small strength on (none at 0, where the output is the content):
+        # a clean-up blended in by the strength itself left half-styled strides half pinned, sliding
+        clean_share = np.clip(strength_out / CLEAN_FULL_STRENGTH, 0.0, 1.0)
     # body parts that keep the content's action: kept ones throughout, the others where the style does
-    # another, as far as the strength goes (plain decoding at strength 0 stays the model's reading)
+    # another. Their target carries the style's posture and statistics as far as the strength goes, so they
+    # keep the content's action at every strength; plain decoding keeps it only as far as the strength goes
+    # (at strength 0 its output stays the model's reading)
     keep = keep_weights(tracks, shares, part_tracks, content.skeleton, grid, content_time, positions, kept)
     automatic = joint_set(set(range(content.skeleton.num_joints)) - set(kept.tolist()))
     legs = body_parts(content.skeleton).get("legs", np.zeros(0, dtype=np.int64))
     automatic_legs = joint_set(set(legs.tolist()) & set(automatic.tolist()))
     # the root follows the style's stride only where the legs take it: where they keep the content's action
     # they keep its path too (legs that took a standing clip's statistics walked 10 % short). Read before
-    # the strength scales the keep: the clean-up itself is blended in by the strength
+    # plain decoding's strength scales the keep: the clean-up itself is blended in by the strength
     legs_keep = (
         np.max(keep[:, automatic_legs], axis=1) if len(automatic_legs) else np.zeros(len(keep))
     )  # (N,)
     root_share = config.root_follows_legs * (1 - legs_keep)  # (N,)
-    keep[:, automatic] *= np.clip(strength_out, 0.0, 1.0)[:, None]  # kept as far as the style acts
+    if config.decode == "plain":
+        keep[:, automatic] *= np.clip(strength_out, 0.0, 1.0)[:, None]
+    else:  # at strength 0 the output is the content already, to the last bit
+        keep[np.ix_(strength_out <= 0, automatic)] = 0.0
     if config.cleanup:
         motion = blend_by_strength(motion, plant_feet(motion, root_share), clean_share)
     if np.any(keep > 0):
