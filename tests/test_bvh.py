@@ -138,6 +138,18 @@ def test_dataset_sample_round_trips_channels_and_positions(dataset_clips) -> Non
         assert np.degrees(relative.magnitude()).max() < 1e-4, clip.name
 
 
+def test_a_clip_written_without_a_layout_keeps_its_moving_joints(dataset_clips) -> None:  # type: ignore[no-untyped-def]
+    """A clip from code (no file layout) whose joint below the root moves (some of the dataset's clips move
+    their Hips below a static joint_Root): that joint gets position channels, so the clip reads back in place."""
+    from tests.conftest import clip_named
+
+    motion = clip_named(dataset_clips, "dataset-2_walk_elderly_010").read()[0]
+    assert np.ptp(motion.translations[:, 1], axis=0).max() > 100  # the Hips travel below a static root
+    again, layout = parse_bvh(bvh_text(motion).encode(), "again")
+    assert layout.channels[1][:3] == ("Xposition", "Yposition", "Zposition")
+    np.testing.assert_allclose(again.positions(), motion.positions(), atol=1e-4)
+
+
 def test_dataset_clip_matches_dataset_description(walk_clip) -> None:  # type: ignore[no-untyped-def]
     motion, layout = walk_clip.read()
     assert motion.skeleton.num_joints == 22

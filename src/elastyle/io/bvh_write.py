@@ -20,7 +20,7 @@ from elastyle.types import FloatArray
 def bvh_text(motion: Motion, layout: BvhLayout | None = None) -> str:
     """The BVH text of a clip, in `layout` (hierarchy, channel orders, End Sites, up axis) when given."""
     skeleton = motion.skeleton
-    layout = layout or BvhLayout.default(skeleton, motion.fps)
+    layout = layout or BvhLayout.default(skeleton, motion.fps, _animated_joints(motion))
     motion = turned_back(motion, layout.up)  # as its file stands (clips are read turned to +Y up)
     if len(layout.channels) != skeleton.num_joints:
         raise ValueError(f"layout has {len(layout.channels)} joints, the clip {skeleton.num_joints}")
@@ -30,6 +30,13 @@ def bvh_text(motion: Motion, layout: BvhLayout | None = None) -> str:
     out.write(f"MOTION\nFrames: {motion.num_frames}\nFrame Time: {1.0 / motion.fps:.7f}\n")
     out.write(_format_rows(_channel_values(motion, layout, written)))
     return out.getvalue()
+
+
+def _animated_joints(motion: Motion) -> list[int]:
+    """Joints below the root whose local translations (T, J, 3) leave their bone offsets in some frame (a
+    joint that moves, or a root some exporter placed below a static joint): they need position channels."""
+    away = np.abs(motion.translations[:, 1:] - motion.skeleton.offsets[1:])  # (T, J - 1, 3)
+    return [joint + 1 for joint in np.flatnonzero(np.any(away > 1e-9, axis=(0, 2))).tolist()]
 
 
 def _format_rows(values: FloatArray) -> str:
