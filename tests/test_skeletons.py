@@ -309,13 +309,16 @@ def test_the_models_skeleton_under_other_names_transfers_as_it_does(
 
 
 def _without_root(motion: Motion) -> Motion:
-    """The clip as an exporter that makes the pelvis the ROOT writes it: the static joint above dropped."""
+    """The clip as an exporter that makes the pelvis the ROOT writes it: the joint above dropped (where it
+    moves, as in some of the dataset's clips, its motion taken into the pelvis's)."""
+    from elastyle.core.roots import without_added_roots
+
     skeleton = motion.skeleton
     dropped = Skeleton(
         skeleton.names[1:], np.maximum(skeleton.parents[1:] - 1, -1), skeleton.offsets[1:],
         skeleton.end_sites[1:], skeleton.unit_cm,
     )  # fmt: skip
-    return Motion(dropped, motion.rotations[:, 1:], motion.translations[:, 1:], motion.fps)
+    return without_added_roots(motion, dropped)
 
 
 def test_the_models_skeleton_without_its_static_root_transfers_as_it_does(
@@ -429,6 +432,115 @@ def test_the_models_skeleton_without_its_root_and_under_other_names_transfers_as
     assert result.motion.skeleton.names == exported(walk).skeleton.names
     np.testing.assert_allclose(result.motion.positions(), own.positions()[:, 1:], atol=1e-9)
     assert any("without joint_Root above" in note for note in result.explain["notes"])
+
+
+def _reordered(motion: Motion, first: tuple[str, ...]) -> Motion:
+    """The clip with the joints named in `first` (and their subtrees) listed before their siblings."""
+    skeleton = motion.skeleton
+    rank = {joint: (0 if name in first else 1, joint) for joint, name in enumerate(skeleton.names)}
+    order: list[int] = []
+    stack = [0]
+    while stack:  # depth first, the named joints' branches first among siblings
+        joint = stack.pop()
+        order.append(joint)
+        stack.extend(sorted(skeleton.children(joint), key=rank.__getitem__, reverse=True))
+    new = {old: at for at, old in enumerate(order)}
+    moved = Skeleton(
+        tuple(skeleton.names[j] for j in order), np.array([new.get(int(skeleton.parents[j]), -1) for j in order]),
+        skeleton.offsets[order], skeleton.end_sites[order], skeleton.unit_cm,
+    )  # fmt: skip
+    return Motion(moved, motion.rotations[:, order], motion.translations[:, order], motion.fps)
+
+
+def _in_z_up_axes(motion: Motion) -> Motion:
+    """The clip as an exporter working in +Z up writes it: the world turned a quarter turn about X and every
+    joint's axes with it (bone offsets, local frames), not only the root."""
+    from elastyle.core.rest_frames import frames_turned
+    from elastyle.core.up import turned_back
+
+    to_z_up = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+    return frames_turned(turned_back(motion, "z"), to_z_up)
+
+
+@pytest.mark.parametrize("export", ["legs-first", "z-up-axes", "z-up-axes-rootless-fingers"])
+def test_other_exports_of_the_models_skeleton_transfer_as_it_does(
+    walk: Motion, dataset_clips: list[ClipRef], tmp_path: Path, export: str
+) -> None:
+    """Joints listed in another order, or a rig written in +Z-up axes (every bone and joint frame turned),
+    alone or with a dropped root and extra joints: transferred on the model's joints exactly as the dataset's
+    own clips are; from files, written back in the file's own order and axes, strength 0 the file's content,
+    and `eval` reads them on the model's joints."""
+    from elastyle.pipeline import transfer
+
+    def exported(motion: Motion) -> Motion:
+        if export == "legs-first":
+            return _reordered(motion, ("UpperLeg_L", "UpperLeg_R"))
+        turned = _in_z_up_axes(motion)
+        return turned if export == "z-up-axes" else _with_fingers(_in_z_up_axes(_without_root(motion)))
+
+    model = load_model()
+    style = clip_named(dataset_clips, "dataset-2_walk_elderly_010").read()[0]
+    own = transfer(walk, style, model=model).motion
+
+    def as_read(motion: Motion) -> Motion:  # what reading its file gives: the body turned to stand along +Y
+        from elastyle.core.up import turned_up
+
+        return turned_up(exported(motion), "y" if export == "legs-first" else "z")
+
+    result = transfer(as_read(walk), as_read(style), model=model).motion
+    assert result.skeleton.names == exported(walk).skeleton.names
+    at = [result.skeleton.names.index(name) for name in own.skeleton.names if name in result.skeleton.names]
+    common = [own.skeleton.index(result.skeleton.names[j]) for j in at]
+    np.testing.assert_allclose(result.positions()[:, at], own.positions()[:, common], atol=1e-6)
+    # from files
+    content, style_file = tmp_path / "content.bvh", tmp_path / "style.bvh"
+    write_bvh(content, exported(walk))
+    write_bvh(style_file, exported(style))
+    out, still = tmp_path / "out.bvh", tmp_path / "still.bvh"
+    for target, strength in ((out, "1"), (still, "0")):
+        done = _cli(
+            "transfer", str(content), "--style", str(style_file), "-o", str(target), "--strength", strength
+        )
+        assert done.returncode == 0, done.stderr
+    given, written = read_bvh(content)[0], read_bvh(out)[0]
+    assert written.skeleton.names == given.skeleton.names
+    np.testing.assert_allclose(written.skeleton.offsets, given.skeleton.offsets, atol=1e-5)  # its own axes
+    np.testing.assert_allclose(read_bvh(still)[0].positions(), given.positions(), atol=1e-3)
+    figures = _cli("eval", str(out), "--content", str(content), "--style", str(style_file), "--json")
+    assert figures.returncode == 0, figures.stderr
+    assert {"content_reconstruction_cm", "style_reconstruction_cm"} <= json.loads(figures.stdout).keys()
+
+
+def test_eval_reads_every_export_of_the_models_skeleton_on_its_joints(
+    walk: Motion, dataset_clips: list[ClipRef], tmp_path: Path
+) -> None:
+    """`eval` of a transfer between clips with extra joints, or without the static root, in any mix: the
+    same figures as for the same motions on the model's own skeleton."""
+    from elastyle.pipeline import transfer
+
+    style = clip_named(dataset_clips, "dataset-2_walk_elderly_010").read()[0]
+    output = transfer(walk, style).motion
+    files = {}
+    for name, motion in (("output", output), ("content", walk), ("style", style)):
+        for form, clip in (
+            ("own", motion),
+            ("fingers", _with_fingers(motion)),
+            ("rootless", _without_root(motion)),
+        ):
+            files[name, form] = tmp_path / f"{name}_{form}.bvh"
+            write_bvh(files[name, form], clip)
+
+    def figures(output_form: str, content_form: str, style_form: str) -> dict[str, float]:
+        done = _cli(
+            "eval", str(files["output", output_form]), "--content", str(files["content", content_form]),
+            "--style", str(files["style", style_form]), "--json",
+        )  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        return dict(json.loads(done.stdout))
+
+    own = figures("own", "own", "own")
+    assert figures("fingers", "fingers", "own") == pytest.approx(own, abs=1e-6)
+    assert figures("rootless", "own", "fingers") == pytest.approx(own, abs=1e-6)
 
 
 def test_a_renamed_skeleton_whose_sides_or_rest_pose_differ_is_refused(walk: Motion) -> None:

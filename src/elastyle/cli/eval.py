@@ -6,10 +6,14 @@ import argparse
 import json
 import logging
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from elastyle.cli.options import add_units_flag
-from elastyle.errors import DatasetError, ElastyleError, UsageError
+from elastyle.errors import DatasetError, ElastyleError, SkeletonMismatchError, UsageError
+
+if TYPE_CHECKING:
+    from elastyle.core.motion import Motion
+    from elastyle.model.file import StyleModel
 
 log = logging.getLogger("elastyle")
 
@@ -96,12 +100,18 @@ def run_eval(args: argparse.Namespace) -> int:
         return 0
     if not (args.output and args.content and args.style):
         raise UsageError("give OUT.bvh --content C.bvh --style S.bvh, or --benchmark DATA")
-    from elastyle.core.body import in_units, no_legs_note, same_structure
+    from elastyle.core.body import in_units, no_legs_note
     from elastyle.eval.report import transfer_figures
     from elastyle.model.depth import clip_depth
 
+    model = load_model(args.model)
+    paths = (args.output, args.content, args.style)
+    clips = [in_units(read_clip(path)[0], args.units) for path in paths]
+    # clips the model reads (other names, joint order or axes, extra joints, a dropped root) on its joints,
+    # so that every export of one rig gives the same figures and a transfer's inputs and output compare
+    readable = [_read_by(model, clip, path) for clip, path in zip(clips, paths)]
     output, content, style = (
-        in_units(read_clip(path)[0], args.units) for path in (args.output, args.content, args.style)
+        model.on_model_hierarchy(clip) if reads else clip for clip, reads in zip(clips, readable)
     )
     # the figures compare the three clips joint by joint: one skeleton, as a transfer keeps it
     content.skeleton.check_same(output.skeleton, f"the content {args.content}", args.output)
@@ -110,9 +120,8 @@ def run_eval(args: argparse.Namespace) -> int:
     note = no_legs_note(output.skeleton, args.output)
     if note is not None:
         log.warning("%s", note)
-    model = load_model(args.model)
-    for name, motion in ((args.content, content), (args.style, style)):
-        if model.skeleton.same_as(motion.skeleton) or same_structure(model.skeleton, motion.skeleton):
+    for name, motion, reads in ((args.content, content, readable[1]), (args.style, style, readable[2])):
+        if reads:
             error, warning = clip_depth(model, motion, name)  # what the model can represent of the inputs
             figures[f"{'content' if motion is content else 'style'}_reconstruction_cm"] = error
             if warning is not None:
@@ -123,6 +132,18 @@ def run_eval(args: argparse.Namespace) -> int:
             )
     _print_figures(figures, args.json)
     return 0
+
+
+def _read_by(model: StyleModel, motion: Motion, path: str) -> bool:
+    """Whether the model reads the clip (`StyleModel.check_clip`), its note logged where it is read
+    otherwise than as the model's own skeleton."""
+    try:
+        note = model.check_clip(motion, path)
+    except SkeletonMismatchError:
+        return False
+    if note is not None:
+        log.info("%s", note)
+    return True
 
 
 def _print_figures(figures: dict[str, float], as_json: bool) -> None:

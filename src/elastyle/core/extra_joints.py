@@ -1,8 +1,9 @@
-"""Clips of a model's skeleton with joints the model lacks: fingers, props, tips exported as joints. Every
-model joint is in the clip under its own name (or the same name after a `namespace:` prefix) below the
-same parent, and the clip's other joints hang below model joints, so the model's joints rotate as on the
-model's skeleton. The transfer reads the model's joints alone; the output carries the others as the content
-performs them, at the output's moments.
+"""Clips of a model's skeleton with joints the model lacks (fingers, props, tips exported as joints), or its
+joints listed in another order. Every model joint is in the clip under its own name (or the same name after
+a `namespace:` prefix) below the same parent, and the clip's other joints hang below model joints, so the
+model's joints rotate as on the model's skeleton. The transfer reads the model's joints alone, in the
+model's order; the output carries the others as the content performs them, at the output's moments, and
+lists every joint in the clip's order.
 
     model_joints_in       (J_model,) each model joint's index in the clip, or None
     without_extra_joints  the clip on the model's joints alone
@@ -21,7 +22,8 @@ from elastyle.types import IntArray
 def model_joints_in(model: Skeleton, clip: Skeleton) -> IntArray | None:
     """(J',) the clip index of each model joint the clip has, in the model's order, where the clip is the
     model's skeleton (less the static joints above its root that some exporters drop: `core.roots`) with
-    joints added below model joints; None for any other clip, and for one without such added joints.
+    joints added below model joints, or its joints listed in another order; None for any other clip, and
+    for one that lists just the model's joints in the model's order.
 
     Names match exactly, or else without namespaces. Each matched joint's parent in the clip must be the
     match of its model parent (no joint inserted between two of the model's), and the model's joints the
@@ -38,7 +40,8 @@ def model_joints_in(model: Skeleton, clip: Skeleton) -> IntArray | None:
         index = {int(joint): at for at, joint in enumerate(joints)}
         parents = [int(p) - missing if p >= missing else -1 for p in model.parents[missing:]]
         if all(index.get(int(clip.parents[joint]), -1) == parent for joint, parent in zip(joints, parents)):
-            return joints if len(joints) < clip.num_joints else None
+            in_order = len(joints) == clip.num_joints and np.array_equal(joints, np.arange(len(joints)))
+            return None if in_order else joints
     return None
 
 

@@ -19,6 +19,7 @@ import numpy as np
 from elastyle.core.body import at_size_of, same_rest_pose, same_structure
 from elastyle.core.extra_joints import model_joints_in, with_extra_joints, without_extra_joints
 from elastyle.core.motion import Motion
+from elastyle.core.rest_frames import AXIS_TURNS, frames_turned
 from elastyle.core.roots import with_added_roots, without_added_roots
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import smooth
@@ -58,9 +59,14 @@ class StyleModel:
         return at_size_of(motion, self.skeleton)
 
     def on_model_hierarchy(self, motion: Motion) -> Motion:
-        """The clip on the model's joints: joints the model lacks below its own dropped
-        (`core.extra_joints`: fingers, props, tips), and the joints above its root that the model has and
-        it lacks added at rest (`core.roots`: a static root some exporters drop); any other clip as it is."""
+        """The clip on the model's joints: its joints' axes turned to the model's where an exporter turned
+        them all (`core.rest_frames`), joints the model lacks below its own dropped and its own put in the
+        model's order (`core.extra_joints`: fingers, props, tips), and the joints above its root that the
+        model has and it lacks added at rest (`core.roots`: a static root some exporters drop); any other
+        clip as it is."""
+        turn = self.rest_turn(motion)
+        if turn is not None:
+            motion = frames_turned(motion, turn)
         joints = model_joints_in(self.skeleton, motion.skeleton)
         if joints is not None:
             motion = without_extra_joints(motion, joints)
@@ -68,12 +74,33 @@ class StyleModel:
 
     def on_clip_hierarchy(self, motion: Motion, clip_at: Motion) -> Motion:
         """An output on the model's hierarchy (`on_model_hierarchy` of the clip) back on the clip's own
-        skeleton: the added root joints dropped and the clip's other joints as `clip_at`, the clip at the
-        output's N moments, has them."""
-        joints = model_joints_in(self.skeleton, clip_at.skeleton)
-        own = clip_at.skeleton if joints is None else without_extra_joints(clip_at, joints).skeleton
+        skeleton: the added root joints dropped, its axes turned back, and the clip's other joints as
+        `clip_at`, the clip at the output's N moments, has them."""
+        turn = self.rest_turn(clip_at)
+        turned = clip_at if turn is None else frames_turned(clip_at.slice(0, 1), turn)
+        joints = model_joints_in(self.skeleton, turned.skeleton)
+        own = turned.skeleton if joints is None else without_extra_joints(turned, joints).skeleton
         motion = without_added_roots(motion, own)
+        if turn is not None:
+            motion = frames_turned(motion, turn.T)
         return motion if joints is None else with_extra_joints(motion, clip_at, joints)
+
+    def rest_turn(self, motion: Motion) -> FloatArray | None:
+        """The turn (3, 3) of every joint's axes under which the model reads a clip it does not read as it
+        is (`core.rest_frames`: an exporter's own axes); None where it reads it as it is, or under no turn."""
+        first = motion.slice(0, 1)  # the skeleton decides; one frame is enough to try
+        try:
+            self._check(first, "clip")
+            return None
+        except SkeletonMismatchError:
+            pass
+        for turn in AXIS_TURNS:
+            try:
+                self._check(frames_turned(first, turn), "clip")
+                return turn
+            except SkeletonMismatchError:
+                continue
+        return None
 
     def normalise(self, features: FloatArray) -> FloatArray:
         return (features - self.feature_mean) / self.feature_std
@@ -92,19 +119,37 @@ class StyleModel:
         return smooth(features, smooth_s * self.fps)
 
     def check_clip(self, motion: Motion, what: str) -> str | None:
-        """None for a clip of the model's skeleton (its joints and rest pose); a note for one of the same
-        skeleton under other joint names (`core.body.same_structure`: read by the hierarchy); otherwise a
-        `SkeletonMismatchError` naming the clip, what differs, and how to get a model for it."""
+        """None for a clip of the model's skeleton (its joints and rest pose); a note for one the model reads
+        otherwise (`on_model_hierarchy`: other joint names or order, extra joints, a dropped static root,
+        its axes turned); otherwise a `SkeletonMismatchError` naming the clip, what differs, and how to get
+        a model for it."""
+        try:
+            return self._check(motion, what)
+        except SkeletonMismatchError:
+            turn = self.rest_turn(motion)
+            if turn is None:
+                raise
+            return _also(
+                f"note: {what}: every joint's axes are turned from the model's (an exporter's own axes): read "
+                "in the model's axes and written back in its own",
+                self._check(frames_turned(motion.slice(0, 1), turn), what),
+                what,
+            )
+
+    def _check(self, motion: Motion, what: str) -> str | None:
+        """`check_clip` for a clip in the model's axes."""
         joints = model_joints_in(self.skeleton, motion.skeleton)
         if joints is not None:  # the model's joints and more below them: read on the model's alone
             extra = [name for joint, name in enumerate(motion.skeleton.names) if joint not in joints]
             listed = ", ".join(extra[:4]) + (", ..." if len(extra) > 4 else "")
-            return _also(
+            note = (
                 f"note: {what}: {len(extra)} joint(s) the model does not have ({listed}): the transfer reads "
-                "the model's joints and the output carries these as the clip performs them",
-                self.check_clip(without_extra_joints(motion, joints), what),
-                what,
+                "the model's joints and the output carries these as the clip performs them"
+                if extra
+                else f"note: {what}: its joints are listed in another order than the model's: read in the "
+                "model's order and written in its own"
             )
+            return _also(note, self._check(without_extra_joints(motion, joints), what), what)
         if self.skeleton.same_as(motion.skeleton):
             if same_rest_pose(self.skeleton, motion.skeleton):
                 return None
@@ -129,7 +174,7 @@ class StyleModel:
             return _also(
                 f"note: {what}: the model's skeleton without {', '.join(self.skeleton.names[:added])} above "
                 f"{motion.skeleton.names[0]}: read with it added at rest, and written without it",
-                self.check_clip(rooted, what),  # under other names too
+                self._check(rooted, what),  # under other names too
                 what,
             )
         try:
