@@ -272,8 +272,10 @@ def test_a_clip_meets_its_own_footing_and_a_higher_floor_lifts_its_feet(walk_cli
     points = np.stack([limbs.toes, limbs.ankles], axis=1)  # (F, 2) as held_footing orders them
     heights = lifted.positions()[:, points, 1]  # (T, F, 2)
     assert np.all(np.max(raised[start:stop, 0] - heights[start:stop, 0], axis=-1) < 1e-6)
+    # the planted toe stays where it was, but for the IK's soft reach near a straight leg (millimetres)
     np.testing.assert_allclose(lifted.positions()[contacts[:, 0], limbs.toes[0]],
-                               plain.positions()[contacts[:, 0], limbs.toes[0]], atol=1e-6)  # fmt: skip
+                               plain.positions()[contacts[:, 0], limbs.toes[0]],
+                               atol=0.3 / centimetres_per_unit(motion.skeleton))  # fmt: skip
     step = np.abs(np.diff(heights[:, 0, 0])) * centimetres_per_unit(motion.skeleton)  # toe, cm per frame
     before = np.abs(np.diff(plain.positions()[:, limbs.toes[0], 1])) * centimetres_per_unit(motion.skeleton)
     assert step.max() < before.max() + 1.0  # eased: no jump of the lift's size
@@ -471,3 +473,21 @@ def test_a_skeleton_without_toes_is_left_as_it_is() -> None:
         np.testing.assert_array_equal(cleaned.rotations, motion.rotations)
     contacts, floor = held_footing(motion, np.ones(4, dtype=bool))
     assert contacts.shape == (4, 0) and floor.shape == (4, 0, 2)
+
+
+def test_knees_do_not_snap_straight_where_the_feet_are_planted(dataset_clips: list[ClipRef]) -> None:
+    """A walk given an elderly walk's style: its planted feet pulled a few millimetres further straightened
+    a near-straight knee for one frame (169 -> 178 -> 170 degrees, eight times in 8 s); the soft reach keeps
+    the knee's angle changing smoothly."""
+    from elastyle.pipeline import transfer
+
+    content = clip_named(dataset_clips, "dataset-2_walk_normal_010").read()[0]
+    style = clip_named(dataset_clips, "dataset-2_walk_elderly_015").read()[0]
+    output = transfer(content, style).motion
+    skeleton, positions = output.skeleton, output.positions()
+    for side in "LR":
+        hip, knee, ankle = (skeleton.index(f"{part}_{side}") for part in ("UpperLeg", "LowerLeg", "Foot"))
+        up, down = positions[:, hip] - positions[:, knee], positions[:, ankle] - positions[:, knee]
+        cosine = np.sum(up * down, axis=1) / np.linalg.norm(up, axis=1) / np.linalg.norm(down, axis=1)
+        angle = np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+        assert np.abs(np.diff(angle, 2)).max() < 15.0, side  # degrees per frame squared (before: 16.7)

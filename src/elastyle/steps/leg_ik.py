@@ -22,6 +22,27 @@ def _angle(u: FloatArray, v: FloatArray) -> FloatArray:
     return np.arccos(np.clip(cosine, -1.0, 1.0))
 
 
+SOFT_FROM = 0.95  # a hip-ankle distance past this share of the straight leg's length is reached softly
+
+
+def _soft_reach(wanted: FloatArray, own: FloatArray, thigh: FloatArray, shin: FloatArray) -> FloatArray:
+    """The hip-ankle distances (T, F) the IK gives for wanted ones (T, F), with the leg's own (T, F) before.
+
+    Near a straight leg the knee's angle changes fastest with the distance, so a target pulled a few
+    millimetres further snapped the knee straight for a frame (169 -> 178 -> 170 degrees). Past `SOFT_FROM`
+    of the leg's length the distance approaches the straight leg exponentially (the same slope where it
+    starts) and never reaches it; the leg's own distance is kept where that is longer, so a leg that stands
+    straight is not bent."""
+    straight = thigh + shin
+    eps = 1e-9 * straight
+    wanted = np.clip(wanted, np.abs(thigh - shin) + eps, straight - eps)
+    start = SOFT_FROM * straight
+    width = straight - start
+    over = np.maximum(wanted - start, 0.0)
+    soft = np.where(over > 0, start + width * (1 - np.exp(-over / width)), wanted)
+    return np.maximum(soft, np.minimum(wanted, own))
+
+
 def leg_ik(
     world_rotations: FloatArray,
     positions: FloatArray,
@@ -37,7 +58,8 @@ def leg_ik(
     The knee bends in its own plane (normal (ankle - hip) x (knee - hip); a straight leg borrows the clip's
     mean normal in the upper leg's frame) to get the hip-target distance by the law of cosines, the leg
     turns back in that plane onto its old hip-ankle line, then swings that line onto the target (minimal
-    arc). The ankle keeps its world rotation, so the foot keeps its orientation.
+    arc). The ankle keeps its world rotation, so the foot keeps its orientation. Targets near the straight
+    leg's reach are reached softly (`_soft_reach`), up to about 1.5 % of the leg short.
     """
     upper_world, knee_world, ankle_world = (
         world_rotations[:, chains[:, i]] for i in range(3)
@@ -56,8 +78,7 @@ def leg_ik(
     axes = np.where(bent[..., None], normal, np.einsum("tfij,fj->tfi", upper_world, mean_normal))  # (T, F, 3)
 
     thigh, shin = lengths(knee - hip), lengths(ankle - knee)  # (T, F)
-    eps = 1e-9 * (thigh + shin)
-    distance = np.clip(lengths(targets - hip), np.abs(thigh - shin) + eps, thigh + shin - eps)
+    distance = _soft_reach(lengths(targets - hip), lengths(ankle - hip), thigh, shin)
     hip_angle = np.arccos(np.clip((thigh**2 + distance**2 - shin**2) / (2 * thigh * distance), -1, 1))
     knee_angle = np.arccos(np.clip((thigh**2 + shin**2 - distance**2) / (2 * thigh * shin), -1, 1))
     cross = np.cross(ankle - hip, targets - hip)
