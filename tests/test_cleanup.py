@@ -491,3 +491,20 @@ def test_knees_do_not_snap_straight_where_the_feet_are_planted(dataset_clips: li
         cosine = np.sum(up * down, axis=1) / np.linalg.norm(up, axis=1) / np.linalg.norm(down, axis=1)
         angle = np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
         assert np.abs(np.diff(angle, 2)).max() < 15.0, side  # degrees per frame squared (before: 16.7)
+
+
+def test_feet_stay_on_the_contents_floor_under_another_actions_statistics(
+    dataset_clips: list[ClipRef],
+) -> None:
+    """A run given a walk's style keeps its legs' action with the walk's statistics, which lowered the feet
+    and the clip's own ground level with them: a toe sank 3 cm below the run's floor for three frames."""
+    from elastyle.core.body import find_limbs
+    from elastyle.pipeline import transfer
+    from elastyle.steps.contacts import ground_level
+
+    content = clip_named(dataset_clips, "dataset-2_run_normal_005").read()[0]
+    style = clip_named(dataset_clips, "dataset-2_walk_masculine_005").read()[0]
+    output = transfer(content, style).motion
+    toes = find_limbs(output.skeleton).toes
+    sink = ground_level(content) - output.positions()[:, toes, 1].min()  # cm: the dataset's unit
+    assert sink < 1.5  # SINK_CM below the floor as the output reads the content (before: 3.0)

@@ -31,7 +31,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from elastyle.core.body import guessed_unit_note, no_legs_note
+from elastyle.core.body import centimetres_per_unit, find_limbs, guessed_unit_note, no_legs_note
 from elastyle.core.motion import Motion
 from elastyle.core.parts import body_parts, joint_set, parse_parts, part_joints, sides_guessed
 from elastyle.core.resample import interpolate_rows
@@ -43,6 +43,7 @@ from elastyle.model.file import StyleModel, load_model
 from elastyle.steps.action import action_channels, part_channels, still_frames, walks_backwards
 from elastyle.steps.cleanup import held_footing, lift_to_ground, plant_feet
 from elastyle.steps.config import TransferConfig
+from elastyle.steps.contacts import ground_level
 from elastyle.steps.decode import (
     blend_by_strength,
     compose_residual,
@@ -260,17 +261,20 @@ def transfer(
             # land nor whether a swinging foot skims the floor
             kept_legs = np.max(keep[:, legs], axis=1) > 0.5  # (N,)
             also, foot_floor = held_footing(content_at, kept_legs)  # (N, F), (N, F, 2)
+            floor = _floor(motion, content_at)
             if coloured_at is not None:  # coloured legs: the whole clean-up again
                 motion = blend_by_strength(
-                    motion, plant_feet(motion, root_share, also, foot_floor), clean_share
+                    motion, plant_feet(motion, root_share, also, foot_floor, floor), clean_share
                 )
             else:
                 # legs that keep the content's action (a turn matched against straight windows) mix two
                 # gaits, whose stance feet slide: pinned again as far as they keep it, the root left where
                 # the clean-up put it (moving it again would shift the whole path), and kept above the ground
-                pinned = plant_feet(motion, 0.0, also, foot_floor)
+                pinned = plant_feet(motion, 0.0, also, foot_floor, floor)
                 motion = blend_by_strength(motion, pinned, legs_keep * clean_share)  # the strength once
-                motion = blend_by_strength(motion, lift_to_ground(motion), (keep > 0) * clean_share[:, None])
+                motion = blend_by_strength(
+                    motion, lift_to_ground(motion, floor), (keep > 0) * clean_share[:, None]
+                )
             motion = motion.with_joints(content_at, kept, translations=True)  # kept parts stay the content's
     _check_finite(motion, "foot clean-up" if config.cleanup else "decoding", content_name)
     record = explain(tracks, libraries, content_time, fps, config)
@@ -295,6 +299,20 @@ def transfer(
     record["output_fps"] = motion.fps
     record["content_reconstruction_cm"] = round(error_cm, 3)
     return TransferResult(motion, record)
+
+
+SINK_CM = 1.0  # a clean-up after the statistics lets toes stand at most this far below the content's ground
+
+
+def _floor(motion: Motion, content: Motion) -> float | None:
+    """The toes' ground level (file units) a clean-up after the style's statistics lifts a clip's feet to:
+    its own, but no further than `SINK_CM` below its content's (the floor the output walks on). Statistics
+    that lower the feet lower the clip's own ground level (the 5th percentile of its toe heights), and a
+    walk's statistics on a run's legs had a foot 3 cm through the floor. None without feet."""
+    if not len(find_limbs(content.skeleton).toes):
+        return None
+    lowest = ground_level(content) - SINK_CM / centimetres_per_unit(content.skeleton)
+    return max(ground_level(motion), lowest)
 
 
 def _decoded(

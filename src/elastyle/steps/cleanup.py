@@ -37,13 +37,14 @@ def plant_feet(
     root_share: float | FloatArray,
     also: BoolArray | None = None,
     foot_floor: FloatArray | None = None,
+    ground: float | None = None,
 ) -> Motion:
     """The whole clean-up: contacts found, the root moved by `root_share` (or per frame (T,)) of the stance feet's drift
     (`adjust_root_speed`, skipped at 0), then the feet pinned (`clean_feet`). One forward kinematics pass
     serves all three: moving the root moves the legs with it and turns nothing. also: (T, F) contacts known
     from elsewhere, added to those found; foot_floor: (T, F, 2) the lowest height of each foot's toe and
     ankle (`clean_feet`): legs that step as another clip does take its contacts and its feet's clearance
-    of the ground (`held_footing`)."""
+    of the ground (`held_footing`); ground: the toes' ground level (`clean_feet`)."""
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
         return clean_feet(motion)
@@ -52,14 +53,18 @@ def plant_feet(
     if also is not None:
         contacts = contacts | _checked(also, motion, limbs)
     if np.all(np.asarray(root_share) <= 0):
-        return clean_feet(motion, contacts, world=(world_rotations, positions), foot_floor=foot_floor)
+        return clean_feet(
+            motion, contacts, world=(world_rotations, positions), foot_floor=foot_floor, ground=ground
+        )
     shift = _root_shift(motion, contacts, (world_rotations, positions), root_share)  # (T, 3) world
     moved = Motion(
         skeleton, motion.rotations.copy(), _shift_pelvis(motion, world_rotations, shift), motion.fps
     )
     positions = positions.copy()
     positions[:, _carried_by_pelvis(skeleton, limbs)] += shift[:, None]
-    return clean_feet(moved, contacts, world=(world_rotations, positions), foot_floor=foot_floor)
+    return clean_feet(
+        moved, contacts, world=(world_rotations, positions), foot_floor=foot_floor, ground=ground
+    )
 
 
 def clean_feet(
@@ -68,6 +73,7 @@ def clean_feet(
     blend_s: float = 0.15,
     world: tuple[FloatArray, FloatArray] | None = None,
     foot_floor: FloatArray | None = None,
+    ground: float | None = None,
 ) -> Motion:
     """Pin each planted foot in place with two-joint IK; a new Motion (same skeleton, fps and frames).
 
@@ -83,7 +89,8 @@ def clean_feet(
     (`contact_points` order), -inf where free: the foot is lifted where either is below it, by the lift
     eased over `FLOOR_EASE_S` (never below what it needs, so a swinging foot clears that floor instead of
     skimming along it) and, nearer a contact of its own, by less of the easing, down to each planted
-    frame's own need (no easing raises a foot that stands).
+    frame's own need (no easing raises a foot that stands). ground: the toes' ground level (file units),
+    the clip's own `ground_level` when None (a transfer gives its content's: the floor the output walks on).
     """
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
@@ -91,7 +98,7 @@ def clean_feet(
     world_rotations, positions = motion.world(limbs.feet) if world is None else world  # legs and their roots
     contacts = detect_contacts(motion, positions) if contacts is None else _checked(contacts, motion, limbs)
     leg = leg_length(skeleton, limbs)
-    ground = ground_level(motion, positions)
+    ground = ground_level(motion, positions) if ground is None else ground
     ramp_frames = blend_s * motion.fps
     bridge_frames = max(BRIDGE_GAP_S * motion.fps, 2 * ramp_frames)
     # 1. ankle targets: the pinned contact point's correction moves the whole foot, then lift to the ground
@@ -157,11 +164,11 @@ def held_footing(reference: Motion, where: BoolArray) -> tuple[BoolArray, FloatA
     return contacts, np.where(where[:, None, None], floor, -np.inf)
 
 
-def lift_to_ground(motion: Motion) -> Motion:
-    """Toes and ankles below the clip's `ground_level` lifted to it by the legs' IK, nothing else changed:
-    for legs set after the clean-up (those that keep the content's action)."""
+def lift_to_ground(motion: Motion, ground: float | None = None) -> Motion:
+    """Toes and ankles below the toes' ground level (the clip's `ground_level` when None) lifted to it by the
+    legs' IK, nothing else changed: for legs set after the clean-up (those that keep the content's action)."""
     limbs = find_limbs(motion.skeleton)
-    return clean_feet(motion, np.zeros((motion.num_frames, len(limbs.toes)), dtype=bool))
+    return clean_feet(motion, np.zeros((motion.num_frames, len(limbs.toes)), dtype=bool), ground=ground)
 
 
 def adjust_root_speed(
