@@ -543,6 +543,31 @@ def test_eval_reads_every_export_of_the_models_skeleton_on_its_joints(
     assert figures("rootless", "own", "fingers") == pytest.approx(own, abs=1e-6)
 
 
+@pytest.mark.parametrize("rootless", [False, True])
+def test_extra_joints_under_other_names_are_found_by_the_hierarchy(
+    walk: Motion, dataset_clips: list[ClipRef], rootless: bool
+) -> None:
+    """The model's joints under the CMU names, with fingers and a head tip below its end joints (and without
+    the static root): matched by the hierarchy, transferred exactly as the dataset's own clips."""
+    from elastyle.pipeline import transfer
+
+    def exported(motion: Motion) -> Motion:
+        fingered = _with_fingers(_without_root(motion) if rootless else motion)
+        skeleton = fingered.skeleton
+        renamed = replace(skeleton, names=tuple(CMU.get(name, name) for name in skeleton.names))
+        return Motion(renamed, fingered.rotations, fingered.translations, fingered.fps)
+
+    model = load_model()
+    style = clip_named(dataset_clips, "dataset-2_walk_elderly_010").read()[0]
+    own = transfer(walk, style, model=model).motion
+    result = transfer(exported(walk), exported(style), model=model)
+    names = result.motion.skeleton.names
+    at = [names.index(CMU[name]) for name in own.skeleton.names if CMU[name] in names]
+    common = [own.skeleton.index(name) for name in own.skeleton.names if CMU[name] in names]
+    np.testing.assert_allclose(result.motion.positions()[:, at], own.positions()[:, common], atol=1e-9)
+    assert "13 joint(s) the model does not have" in result.explain["notes"][0]
+
+
 def test_a_renamed_skeleton_whose_sides_or_rest_pose_differ_is_refused(walk: Motion) -> None:
     from elastyle import SkeletonMismatchError
     from elastyle.pipeline import transfer

@@ -27,7 +27,19 @@ def model_joints_in(model: Skeleton, clip: Skeleton) -> IntArray | None:
 
     Names match exactly, or else without namespaces. Each matched joint's parent in the clip must be the
     match of its model parent (no joint inserted between two of the model's), and the model's joints the
-    clip lacks must be a chain above its root."""
+    clip lacks must be a chain above its root. Where no names match, joints under other names are matched
+    by the hierarchy (`_by_hierarchy`: extra joints only below the model's end joints), for the caller to
+    check as the model's skeleton under other names (`core.body.same_structure`)."""
+    by_name = _by_name(model, clip)
+    joints = by_name if by_name is not None else _by_hierarchy(model, clip)
+    if joints is None:
+        return None
+    in_order = len(joints) == clip.num_joints and np.array_equal(joints, np.arange(len(joints)))
+    return None if in_order else joints
+
+
+def _by_name(model: Skeleton, clip: Skeleton) -> IntArray | None:
+    """`model_joints_in` by joint names, or None."""
     for key in (str, bare_name):
         where = {key(name): joint for joint, name in enumerate(clip.names)}
         if len(where) < clip.num_joints:
@@ -40,8 +52,32 @@ def model_joints_in(model: Skeleton, clip: Skeleton) -> IntArray | None:
         index = {int(joint): at for at, joint in enumerate(joints)}
         parents = [int(p) - missing if p >= missing else -1 for p in model.parents[missing:]]
         if all(index.get(int(clip.parents[joint]), -1) == parent for joint, parent in zip(joints, parents)):
-            in_order = len(joints) == clip.num_joints and np.array_equal(joints, np.arange(len(joints)))
-            return None if in_order else joints
+            return joints
+    return None
+
+
+def _by_hierarchy(model: Skeleton, clip: Skeleton) -> IntArray | None:
+    """`model_joints_in` under other names: the clip's root taken for the model's joint k (0, or a joint of
+    the static chain above the model's pelvis that some exporters drop), each model joint with children
+    matched to a clip joint with as many children, in their order, and a model joint without children to
+    a clip joint with any (fingers below a hand, a tip below the head); None where the tree differs."""
+    for top in range(model.pelvis + 1):
+        if top and model.parents[top] != top - 1:
+            break  # the joints above the root are no chain
+        found = {top: 0}
+        pending = [top]
+        while pending:
+            joint = pending.pop()
+            ours, theirs = model.children(joint), clip.children(found[joint])
+            if not ours:
+                continue  # the clip's joints below a model end joint are extra
+            if len(theirs) != len(ours):
+                break
+            found.update(zip(ours, theirs))
+            pending.extend(ours)
+        else:
+            if len(found) == model.num_joints - top:
+                return np.array([found[joint] for joint in range(top, model.num_joints)], dtype=np.int64)
     return None
 
 
