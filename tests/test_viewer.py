@@ -355,3 +355,26 @@ def test_headless_browser_plays_a_glb(
         for shot in shots
     ]
     assert np.linalg.norm(moved[1] - moved[0]) > 2.0  # the left side's pixels moved between 0.5 s and 1.5 s
+
+
+def test_the_floor_lies_under_the_feet_whatever_else_hangs_low(dataset_clips: list[ClipRef]) -> None:
+    """A prop hanging 1 m below the pelvis, far below the feet: the floor drawn is the feet's."""
+    from elastyle.core.motion import Motion
+    from elastyle.core.skeleton import Skeleton
+
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0]
+    skeleton = walk.skeleton
+    pelvis = skeleton.pelvis
+    below = walk.world([pelvis])[0][0, pelvis].T @ np.array([0.0, -100.0, 0.0])  # down, in the pelvis's frame
+    armed = Motion(
+        Skeleton(
+            (*skeleton.names, "Prop"), np.append(skeleton.parents, pelvis), np.vstack([skeleton.offsets, below]),
+            np.vstack([skeleton.end_sites, below]),
+        ),
+        np.concatenate([walk.rotations, np.zeros((walk.num_frames, 1, 3))], axis=1),
+        np.concatenate([walk.translations, np.broadcast_to(below, (walk.num_frames, 1, 3))], axis=1),
+        walk.fps,
+    )  # fmt: skip
+    assert armed.positions()[:, -1, 1].max() < walk.positions()[:, skeleton.index("Toes_R"), 1].min() - 5
+    grounds = [build_payload([motion], ["clip"])["clips"][0]["ground"] for motion in (walk, armed)]
+    assert grounds[1] == pytest.approx(grounds[0])

@@ -23,7 +23,7 @@ import numpy as np
 from elastyle.core.body import centimetres_per_unit
 from elastyle.core.motion import Motion
 from elastyle.errors import ElastyleError
-from elastyle.viewer.render import drawn_points, grid_spacing
+from elastyle.viewer.render import drawn_points, grid_spacing, ground_height
 
 log = logging.getLogger("elastyle")
 
@@ -53,7 +53,7 @@ def build_payload(
     for motion, label in zip(motions, labels):
         points, pairs, sides = drawn_points(motion)  # the joints, then the End Sites
         positions = points * centimetres_per_unit(motion.skeleton)  # (T, J + E, 3) cm, +Y up
-        ground = float(positions[..., 1].min())
+        ground = ground_height(motion.skeleton, positions)
         height = max(height, float(positions[..., 1].max()) - ground)
         clips.append(
             {

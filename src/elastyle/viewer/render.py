@@ -18,8 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from elastyle.core.body import centimetres_per_unit
+from elastyle.core.body import centimetres_per_unit, find_limbs
 from elastyle.core.motion import Motion
+from elastyle.core.parts import subtree
 from elastyle.core.resample import interpolate_rows
 from elastyle.core.skeleton import Skeleton
 from elastyle.errors import ElastyleError, OutputError, UsageError
@@ -51,13 +52,29 @@ def drawn_points(motion: Motion) -> tuple[FloatArray, IntArray, IntArray]:
     them (B, 2) and each point's side colour index (J + E,) (`joint_sides`)."""
     skeleton = motion.skeleton
     rotations, positions = motion.world()  # (T, J, 3, 3), (T, J, 3)
-    lengths = np.linalg.norm(np.nan_to_num(skeleton.end_sites), axis=1)  # (J,), 0 where there is none
-    ends = [j for j in range(skeleton.num_joints) if j > skeleton.pelvis and lengths[j] > 0]
+    ends = _tip_joints(skeleton)
     tips = positions[:, ends] + np.einsum("tjab,jb->tja", rotations[:, ends], skeleton.end_sites[ends])
     tip_bones = [(joint, skeleton.num_joints + k) for k, joint in enumerate(ends)]
     pairs = np.concatenate([bones(skeleton), np.asarray(tip_bones, dtype=np.int64).reshape(-1, 2)])
     sides = joint_sides(skeleton)
     return np.concatenate([positions, tips], axis=1), pairs, np.concatenate([sides, sides[ends]])
+
+
+def _tip_joints(skeleton: Skeleton) -> list[int]:
+    """The joints below the pelvis whose End Sites a figure draws, in `drawn_points`' order."""
+    lengths = np.linalg.norm(np.nan_to_num(skeleton.end_sites), axis=1)  # (J,), 0 where there is none
+    return [j for j in range(skeleton.num_joints) if j > skeleton.pelvis and lengths[j] > 0]
+
+
+def ground_height(skeleton: Skeleton, points: FloatArray) -> float:
+    """The floor drawn under a clip: the lowest of its feet's points (T, J + E, 3) from `drawn_points` (each
+    ankle and below, End Sites included), so a prop held below the feet does not lower it; the lowest of
+    all points for a clip without feet."""
+    feet = {joint for ankle in find_limbs(skeleton).ankles for joint in subtree(skeleton, int(ankle))}
+    if not feet:
+        return float(points[..., 1].min())
+    tips = [skeleton.num_joints + k for k, joint in enumerate(_tip_joints(skeleton)) if joint in feet]
+    return float(points[:, [*sorted(feet), *tips], 1].min())
 
 
 def joint_sides(skeleton: Skeleton) -> IntArray:
@@ -171,7 +188,7 @@ def render_clips(
         sample_positions(points * centimetres_per_unit(m.skeleton), m.fps, times_s)
         for m, (points, _, _) in zip(motions, drawn)
     ]  # each (N, J + E, 3) cm
-    grounds = [float(p[..., 1].min()) for p in positions]
+    grounds = [ground_height(m.skeleton, p) for m, p in zip(motions, positions)]
     height = max(float(p[..., 1].max()) - g for p, g in zip(positions, grounds))
     height = height if height > 0 else 1.0
     spacing = grid_spacing(height)
