@@ -568,6 +568,42 @@ def test_extra_joints_under_other_names_are_found_by_the_hierarchy(
     assert "13 joint(s) the model does not have" in result.explain["notes"][0]
 
 
+def _below_an_armature(motion: Motion) -> Motion:
+    """The clip in +Z-up axes below an `Armature` joint whose rotation stands it back along +Y (as some
+    exporters write a scene object above the rig): the same world motion."""
+    from elastyle.core.rotations import from_matrix
+
+    turned = _in_z_up_axes(motion)
+    skeleton = turned.skeleton
+    upright = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
+    armature = Skeleton(
+        ("Armature", *skeleton.names), np.append(-1, skeleton.parents + 1), np.vstack([np.zeros(3), skeleton.offsets]),
+        np.vstack([np.full(3, np.nan), skeleton.end_sites]), skeleton.unit_cm,
+    )  # fmt: skip
+    rotations = np.concatenate(
+        [np.broadcast_to(from_matrix(upright), (motion.num_frames, 1, 3)), turned.rotations], axis=1
+    )
+    translations = np.concatenate([np.zeros((motion.num_frames, 1, 3)), turned.translations], axis=1)
+    return Motion(armature, rotations, translations, motion.fps)
+
+
+def test_a_joint_above_the_models_root_is_taken_into_it(walk: Motion, dataset_clips: list[ClipRef]) -> None:
+    """An `Armature` joint above the rig, turning a +Z-up rig upright: its world transform is taken into the
+    model's root (not ignored), the transfer is the dataset clip's, and strength 0 is the content."""
+    from elastyle.pipeline import transfer
+
+    clip = _below_an_armature(walk)
+    np.testing.assert_allclose(clip.positions()[:, 1:], walk.positions(), atol=1e-9)
+    model = load_model()
+    style = clip_named(dataset_clips, "dataset-2_walk_elderly_010").read()[0]
+    own = transfer(walk, style, model=model).motion
+    result = transfer(clip, _below_an_armature(style), model=model)
+    np.testing.assert_allclose(result.motion.positions()[:, 1:], own.positions(), atol=1e-6)
+    assert result.explain["content_reconstruction_cm"] < 0.2  # read as the dataset's own clip (ignored: 3.1)
+    still = transfer(clip, style, model=model, strength=0).motion
+    np.testing.assert_allclose(still.positions(), clip.positions(), atol=1e-9)
+
+
 def test_a_renamed_skeleton_whose_sides_or_rest_pose_differ_is_refused(walk: Motion) -> None:
     from elastyle import SkeletonMismatchError
     from elastyle.pipeline import transfer

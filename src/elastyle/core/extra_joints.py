@@ -1,6 +1,7 @@
 """Clips of a model's skeleton with joints the model lacks (fingers, props, tips exported as joints), or its
 joints listed in another order. Every model joint is in the clip under its own name (or the same name after
-a `namespace:` prefix) below the same parent, and the clip's other joints hang below model joints, so the
+a `namespace:` prefix) below the same parent, and the clip's other joints hang below model joints (or
+above the model's top joint, an exporter's `Armature`: their world transform is taken into it), so the
 model's joints rotate as on the model's skeleton. The transfer reads the model's joints alone, in the
 model's order; the output carries the others as the content performs them, at the output's moments, and
 lists every joint in the clip's order.
@@ -15,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from elastyle.core.motion import Motion
+from elastyle.core.rotations import from_matrix, to_matrix
 from elastyle.core.skeleton import Skeleton, bare_name
 from elastyle.types import IntArray
 
@@ -83,25 +85,44 @@ def _by_hierarchy(model: Skeleton, clip: Skeleton) -> IntArray | None:
 
 def without_extra_joints(motion: Motion, joints: IntArray) -> Motion:
     """The clip (T, J frames and joints) on its joints `joints` (J',) alone, in that order: their local
-    rotations and translations unchanged, as the model reads them."""
+    rotations and translations unchanged, as the model reads them, but for the first's where extra joints
+    lie above it (an exporter's `Armature` above the hips): their world transform taken into it, so no
+    joint moves in the world."""
     skeleton = motion.skeleton
     index = {int(joint): at for at, joint in enumerate(joints)}
     parents = np.array([index.get(int(skeleton.parents[joint]), -1) for joint in joints], dtype=np.int64)
     ends = skeleton.end_sites[joints].copy()
-    for at, joint in enumerate(joints):  # a joint whose children are all extra: its first child as its tip
+    for at, joint in enumerate(joints):  # a joint whose children are all extra: their mean place as its tip
         children = np.flatnonzero(skeleton.parents == joint)
         if np.isnan(ends[at, 0]) and len(children) and not np.any(parents == at):
-            ends[at] = skeleton.offsets[children[0]]
+            ends[at] = skeleton.offsets[children].mean(axis=0)
     subset = Skeleton(
         tuple(skeleton.names[j] for j in joints), parents, skeleton.offsets[joints], ends, skeleton.unit_cm
     )
-    return Motion(subset, motion.rotations[:, joints], motion.translations[:, joints], motion.fps)
+    rotations, translations = motion.rotations[:, joints], motion.translations[:, joints]
+    above = int(skeleton.parents[joints[0]])
+    if above >= 0:  # into the world's frame: the extra joints above multiplied in
+        world_rotations, world_positions = motion.world([above])
+        turn, origin = world_rotations[:, above], world_positions[:, above]  # (T, 3, 3), (T, 3)
+        rotations[:, 0] = from_matrix(turn @ to_matrix(rotations[:, 0]))
+        translations[:, 0] = origin + np.einsum("tij,tj->ti", turn, translations[:, 0])
+    return Motion(subset, rotations, translations, motion.fps)
 
 
 def with_extra_joints(motion: Motion, clip_at: Motion, joints: IntArray) -> Motion:
     """An output on the clip's joints `joints` (N, J' frames and joints) on the clip's whole skeleton: the
-    other joints as `clip_at` (the clip at the output's N moments) has them."""
+    other joints as `clip_at` (the clip at the output's N moments) has them, and the first joint, placed
+    in the world, put back below the extra joints above it (`without_extra_joints`)."""
     rotations, translations = clip_at.rotations.copy(), clip_at.translations.copy()
     rotations[:, joints] = motion.rotations
     translations[:, joints] = motion.translations
+    above = int(clip_at.skeleton.parents[joints[0]])
+    if above >= 0:  # from the world's frame into the frame of the joint above
+        world_rotations, world_positions = clip_at.world([above])
+        inverse = np.swapaxes(world_rotations[:, above], -1, -2)  # (N, 3, 3)
+        top = joints[0]
+        rotations[:, top] = from_matrix(inverse @ to_matrix(motion.rotations[:, 0]))
+        translations[:, top] = np.einsum(
+            "tij,tj->ti", inverse, motion.translations[:, 0] - world_positions[:, above]
+        )
     return Motion(clip_at.skeleton, rotations, translations, motion.fps)

@@ -20,13 +20,17 @@ from elastyle.types import FloatArray
 
 
 def _axis_turns() -> tuple[FloatArray, ...]:
-    """Every rotation (3, 3) that takes each axis to an axis, either way, but the identity (23 of them)."""
-    turns = []
+    """Every rotation (3, 3) that takes each axis to an axis, either way, but the identity (23 of them); the
+    quarter turns about X first (+Z up to +Y up and back, the commonest)."""
+    turns = [np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])]
+    turns.append(turns[0].T)
     for order in itertools.permutations(range(3)):
         for signs in itertools.product((1.0, -1.0), repeat=3):
             turn = np.zeros((3, 3))
             turn[range(3), order] = signs
-            if np.linalg.det(turn) > 0 and not np.array_equal(turn, np.eye(3)):
+            if np.linalg.det(turn) > 0 and not any(
+                np.array_equal(turn, known) for known in [np.eye(3), *turns]
+            ):
                 turns.append(turn)
     return tuple(turns)
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import weakref
 import zipfile
 from dataclasses import asdict, dataclass, field
 from io import BytesIO
@@ -87,16 +88,22 @@ class StyleModel:
 
     def rest_turn(self, motion: Motion) -> FloatArray | None:
         """The turn (3, 3) of every joint's axes under which the model reads a clip it does not read as it
-        is (`core.rest_frames`: an exporter's own axes); None where it reads it as it is, or under no turn."""
-        first = motion.slice(0, 1)  # the skeleton decides; one frame is enough to try
+        is (`core.rest_frames`: an exporter's own axes); None where it reads it as it is, or under no turn.
+        Found once per clip skeleton (it decides alone)."""
+        known = _REST_TURNS.setdefault(self.skeleton, weakref.WeakKeyDictionary())
+        if motion.skeleton not in known:
+            known[motion.skeleton] = (self._find_rest_turn(motion.slice(0, 1)),)  # one frame is enough
+        return known[motion.skeleton][0]
+
+    def _find_rest_turn(self, motion: Motion) -> FloatArray | None:
         try:
-            self._check(first, "clip")
+            self._check(motion, "clip")
             return None
         except SkeletonMismatchError:
             pass
         for turn in AXIS_TURNS:
             try:
-                self._check(frames_turned(first, turn), "clip")
+                self._check(frames_turned(motion, turn), "clip")
                 return turn
             except SkeletonMismatchError:
                 continue
@@ -185,6 +192,13 @@ class StyleModel:
                 "model.npz --recipe shipped --minutes 20' and pass it with --model model.npz"
             ) from None
         return None  # check_same passed: the same names in the same hierarchy
+
+
+# per model skeleton, per clip skeleton: the turn of its axes `StyleModel.rest_turn` found
+_REST_TURNS: weakref.WeakKeyDictionary[
+    Skeleton, weakref.WeakKeyDictionary[Skeleton, tuple[FloatArray | None]]
+]
+_REST_TURNS = weakref.WeakKeyDictionary()
 
 
 def _also(note: str, other: str | None, what: str) -> str:

@@ -59,7 +59,7 @@ def leg_ik(
     mean normal in the upper leg's frame) to get the hip-target distance by the law of cosines, the leg
     turns back in that plane onto its old hip-ankle line, then swings that line onto the target (minimal
     arc). The ankle keeps its world rotation, so the foot keeps its orientation. Targets near the straight
-    leg's reach are reached softly (`_soft_reach`), up to about 1.5 % of the leg short.
+    leg's reach are reached softly (`_soft_reach`), under 2 % of the leg short.
     """
     upper_world, knee_world, ankle_world = (
         world_rotations[:, chains[:, i]] for i in range(3)
