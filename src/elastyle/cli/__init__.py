@@ -20,6 +20,7 @@ log = logging.getLogger("elastyle")
 
 
 def _command_info(args: argparse.Namespace) -> int:
+    from elastyle.core.body import standing_height
     from elastyle.io.dataset import find_clips
 
     for clip in find_clips(args.clip):
@@ -33,8 +34,10 @@ def _command_info(args: argparse.Namespace) -> int:
         )
         print(f"  frames:   {motion.num_frames} at {motion.fps:.6g} fps ({motion.duration_s:.3f} s)")
         positions = motion.positions()
+        extent = float(positions[0, :, 1].max() - positions[0, :, 1].min())
         print(
-            f"  height:   {float(positions[0, :, 1].max() - positions[0, :, 1].min()):.2f} file units (first frame)"
+            f"  height:   {standing_height(skeleton):.2f} file units standing, from its bone lengths (the "
+            f"first frame spans {extent:.2f})"
         )
         print(f"  up:       +{layout.up.upper()}")
     return 0
