@@ -18,6 +18,16 @@ NO_DATA_REASON = (
 )
 
 
+def pytest_report_header() -> str:
+    """One line atop every run: the dataset the real-data tests read, or why they skip."""
+    data = default_data_path()
+    return (
+        f"elastyle data: {data}"
+        if data is not None
+        else f"elastyle data: none, real-data tests skip ({NO_DATA_REASON})"
+    )
+
+
 settings.register_profile(
     "elastyle", derandomize=True, deadline=None, database=None
 )  # the same examples every run

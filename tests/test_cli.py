@@ -251,3 +251,17 @@ def test_train_recipes_set_what_no_flag_gives() -> None:
     assert overridden.model.latent_channels == 48 and overridden.learning_rate == 5e-4
     assert not overridden.model.tied and overridden.batch_size == 32  # the rest stays the recipe's
     assert config("--untied").model.tied is False and config().model.tied is True
+
+
+def test_a_name_the_archive_lacks_is_answered_with_its_nearest_and_a_batch_names_skip_existing(
+    walk: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Guessing a dataset clip's name wrong (its style left out) names the archive's nearest; a batch whose
+    outputs partly exist says --skip-existing writes the rest."""
+    wrong = walk.replace("walk_normal_005", "walk_005")
+    assert main(["info", wrong]) == 1
+    assert "nearest: dataset-2_walk_normal_005.bvh" in capsys.readouterr().err
+    other = walk.replace("walk_normal_005", "walk_normal_010")
+    (tmp_path / "dataset-2_walk_normal_005.bvh").write_text("taken")
+    assert main(["transfer", walk, other, "--style", walk, "-o", str(tmp_path), "--no-cache"]) == 1
+    assert "--skip-existing" in capsys.readouterr().err

@@ -20,7 +20,7 @@ log = logging.getLogger("elastyle")
 
 
 def _command_info(args: argparse.Namespace) -> int:
-    from elastyle.core.body import standing_height
+    from elastyle.core.body import centimetres_per_unit, standing_height
     from elastyle.io.dataset import find_clips
 
     for clip in find_clips(args.clip):
@@ -35,9 +35,11 @@ def _command_info(args: argparse.Namespace) -> int:
         print(f"  frames:   {motion.num_frames} at {motion.fps:.6g} fps ({motion.duration_s:.3f} s)")
         positions = motion.positions()
         extent = float(positions[0, :, 1].max() - positions[0, :, 1].min())
+        height = standing_height(skeleton)
         print(
-            f"  height:   {standing_height(skeleton):.2f} file units standing, from its bone lengths (the "
-            f"first frame spans {extent:.2f})"
+            f"  height:   {height:.2f} file units standing, from its bone lengths: about "
+            f"{height * centimetres_per_unit(skeleton):.0f} cm as the unit is guessed (the first frame spans "
+            f"{extent:.2f})"
         )
         print(f"  up:       +{layout.up.upper()}")
     return 0

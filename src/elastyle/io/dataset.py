@@ -5,6 +5,7 @@ Every command and test lists its clips through `find_clips` and reads them with 
 
 from __future__ import annotations
 
+import difflib
 import fnmatch
 import glob
 import logging
@@ -88,9 +89,19 @@ class ClipRef(NamedTuple):
                 raise BvhError(self.name, problem)
             return archive.read(self.member or "")
         except KeyError:
-            raise BvhError(self.name, f"no such file in the archive {self.archive}") from None
+            raise BvhError(
+                self.name,
+                f"no such file in the archive {self.archive}{_nearest(self.archive, self.member or '')}",
+            ) from None
         except (zipfile.BadZipFile, OSError) as error:
             raise BvhError(self.name, f"cannot read: {error}") from None
+
+
+def _nearest(archive: str, member: str) -> str:
+    """ "(nearest: ...)" naming the archive's files whose names are nearest `member`'s, or ""."""
+    names = [name.rsplit("/", 1)[-1] for name in _open_zip(archive, os.getpid()).namelist()]
+    close = difflib.get_close_matches(member.rsplit("/", 1)[-1], names, n=3, cutoff=0.6)
+    return f" (nearest: {', '.join(close)})" if close else ""
 
 
 @lru_cache(maxsize=8)
@@ -161,7 +172,10 @@ def find_clips(specs: Iterable[str | os.PathLike[str]], pattern: str | None = No
         if pattern:
             found = [c for c in found if fnmatch.fnmatch(Path(c.member or c.name).name, pattern)]
         if not found:
-            raise DatasetError(f"{spec}: no BVH clips found{f' matching {pattern!r}' if pattern else ''}")
+            nearest = _nearest(*archive) if archive is not None and archive[1] else ""
+            raise DatasetError(
+                f"{spec}: no BVH clips found{f' matching {pattern!r}' if pattern else ''}{nearest}"
+            )
         clips.extend(found)
     return clips
 
