@@ -268,6 +268,11 @@ def load_model(path: str | os.PathLike[str] | None = None) -> StyleModel:
             **{n: data[f"weight_{n}"] for n in _WEIGHT_NAMES if f"weight_{n}" in data}
         )
         _check_arrays(data, config, len(skeleton.names))
+        if spec.num_channels != data["feature_mean"].shape[0]:  # the skeleton read otherwise than in training
+            raise ValueError(
+                f"its skeleton gives {spec.num_channels} feature channels, its weights {data['feature_mean'].shape[0]}: "
+                "train it again with this elastyle"
+            )
         return StyleModel(
             config,
             spec,
