@@ -608,20 +608,6 @@ def test_a_joint_above_the_models_root_is_taken_into_it(walk: Motion, dataset_cl
     np.testing.assert_allclose(still.positions(), clip.positions(), atol=1e-9)
 
 
-def test_a_prop_below_the_root_leaves_the_pelvis_and_limbs(walk: Motion) -> None:
-    """A prop joint hanging from the static root (beside the hips) does not take the pelvis's place, so the
-    legs and arms are found as before."""
-    skeleton = walk.skeleton
-    with_prop = Skeleton(
-        (*skeleton.names, "Prop"), np.append(skeleton.parents, 0), np.vstack([skeleton.offsets, [0.0, 50.0, 0.0]]),
-        np.vstack([skeleton.end_sites, [[0.0, 10.0, 0.0]]]),
-    )  # fmt: skip
-    assert with_prop.pelvis == skeleton.pelvis == skeleton.index("Hips")
-    ours, theirs = find_limbs(skeleton), find_limbs(with_prop)
-    for name in ("toes", "ankles", "hips", "hands", "arm_roots"):
-        assert np.array_equal(getattr(ours, name), getattr(theirs, name)), name
-
-
 def test_a_renamed_skeleton_whose_sides_or_rest_pose_differ_is_refused(walk: Motion) -> None:
     from elastyle import SkeletonMismatchError
     from elastyle.pipeline import transfer

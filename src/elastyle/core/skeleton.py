@@ -76,14 +76,11 @@ class Skeleton:
 
     @cached_property
     def pelvis(self) -> int:
-        """The centre joint whose translation and heading carry the body: the first joint that branches into
-        two or more limbs (children with joints of their own below), so a prop or a tip hanging from a joint
-        above the pelvis does not take its place; else the first joint that branches at all; else the root."""
-        branching = [joint for joint in range(self.num_joints) if len(self.children(joint)) >= 2]
-        for joint in branching:
-            if sum(1 for child in self.children(joint) if self.children(child)) >= 2:
+        """The centre joint whose translation and heading carry the body: the first joint that branches."""
+        for joint in range(self.num_joints):
+            if len(self.children(joint)) >= 2:
                 return joint
-        return branching[0] if branching else 0
+        return 0
 
     def index(self, name: str) -> int:
         return self.names.index(name)
