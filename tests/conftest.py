@@ -21,11 +21,9 @@ NO_DATA_REASON = (
 def pytest_report_header() -> str:
     """One line atop every run: the dataset the real-data tests read, or why they skip."""
     data = default_data_path()
-    return (
-        f"elastyle data: {data}"
-        if data is not None
-        else f"elastyle data: none, real-data tests skip ({NO_DATA_REASON})"
-    )
+    if data is not None and data.exists():
+        return f"elastyle data: {data}"
+    return f"elastyle data: {data or 'none'} not found, real-data tests skip ({NO_DATA_REASON})"
 
 
 settings.register_profile(

@@ -260,7 +260,7 @@ def test_a_name_the_archive_lacks_is_answered_with_its_nearest_and_a_batch_names
     outputs partly exist says --skip-existing writes the rest."""
     wrong = walk.replace("walk_normal_005", "walk_005")
     assert main(["info", wrong]) == 1
-    assert "nearest: dataset-2_walk_normal_005.bvh" in capsys.readouterr().err
+    assert "nearest in it: bandai-namco-2/data/dataset-2_walk_normal_005.bvh" in capsys.readouterr().err
     other = walk.replace("walk_normal_005", "walk_normal_010")
     (tmp_path / "dataset-2_walk_normal_005.bvh").write_text("taken")
     assert main(["transfer", walk, other, "--style", walk, "-o", str(tmp_path), "--no-cache"]) == 1

@@ -38,8 +38,8 @@ def _command_info(args: argparse.Namespace) -> int:
         height = standing_height(skeleton)
         print(
             f"  height:   {height:.2f} file units standing, from its bone lengths: about "
-            f"{height * centimetres_per_unit(skeleton):.0f} cm as the unit is guessed (the first frame spans "
-            f"{extent:.2f})"
+            f"{height * centimetres_per_unit(skeleton):.0f} cm, its unit "
+            f"{'as its file states' if skeleton.unit_cm else 'guessed'} (the first frame spans {extent:.2f})"
         )
         print(f"  up:       +{layout.up.upper()}")
     return 0

@@ -112,14 +112,13 @@ def _outputs(args: argparse.Namespace) -> tuple[list[str], list[Path]]:
         if len(kept) < len(contents):
             log.info("note: %d of %d outputs exist and are skipped", len(contents) - len(kept), len(contents))
         contents, targets = [c for c, _ in kept], [t for _, t in kept]
-    try:
-        return contents, [check_output_path(t, force=args.force, inputs=inputs) for t in targets]
-    except OutputError as error:  # in a batch, leaving what exists is the other way out
-        if "already exists" not in str(error):
-            raise
+    existing = [target for target in targets if target.is_file()]
+    if existing and not args.force:  # in a batch, leaving what exists is the other way out
         raise OutputError(
-            f"{error}; --skip-existing leaves the outputs that exist and writes the rest"
-        ) from None
+            f"{existing[0]}: already exists (--force overwrites it; --skip-existing leaves the outputs that exist "
+            "and writes the rest)"
+        )
+    return contents, [check_output_path(t, force=args.force, inputs=inputs) for t in targets]
 
 
 def _content_clips(specs: list[str]) -> list[str]:

@@ -98,10 +98,10 @@ class ClipRef(NamedTuple):
 
 
 def _nearest(archive: str, member: str) -> str:
-    """ "(nearest: ...)" naming the archive's files whose names are nearest `member`'s, or ""."""
-    names = [name.rsplit("/", 1)[-1] for name in _open_zip(archive, os.getpid()).namelist()]
-    close = difflib.get_close_matches(member.rsplit("/", 1)[-1], names, n=3, cutoff=0.6)
-    return f" (nearest: {', '.join(close)})" if close else ""
+    """ "(nearest: ...)" naming the archive's clips whose paths in it are nearest `member`, or ""."""
+    clips = [name for name in _open_zip(archive, os.getpid()).namelist() if name.lower().endswith(".bvh")]
+    close = difflib.get_close_matches(member, clips, n=3, cutoff=0.6)
+    return f" (nearest in it: {', '.join(close)})" if close else ""
 
 
 @lru_cache(maxsize=8)
