@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from elastyle.core.motion import Motion
-from elastyle.core.rotations import from_matrix, to_matrix
+from elastyle.core.roots import below, in_world
 from elastyle.core.skeleton import Skeleton, bare_name
 from elastyle.types import IntArray
 
@@ -102,10 +102,7 @@ def without_extra_joints(motion: Motion, joints: IntArray) -> Motion:
     rotations, translations = motion.rotations[:, joints], motion.translations[:, joints]
     above = int(skeleton.parents[joints[0]])
     if above >= 0:  # into the world's frame: the extra joints above multiplied in
-        world_rotations, world_positions = motion.world([above])
-        turn, origin = world_rotations[:, above], world_positions[:, above]  # (T, 3, 3), (T, 3)
-        rotations[:, 0] = from_matrix(turn @ to_matrix(rotations[:, 0]))
-        translations[:, 0] = origin + np.einsum("tij,tj->ti", turn, translations[:, 0])
+        rotations[:, 0], translations[:, 0] = in_world(motion, above, rotations[:, 0], translations[:, 0])
     return Motion(subset, rotations, translations, motion.fps)
 
 
@@ -118,11 +115,8 @@ def with_extra_joints(motion: Motion, clip_at: Motion, joints: IntArray) -> Moti
     translations[:, joints] = motion.translations
     above = int(clip_at.skeleton.parents[joints[0]])
     if above >= 0:  # from the world's frame into the frame of the joint above
-        world_rotations, world_positions = clip_at.world([above])
-        inverse = np.swapaxes(world_rotations[:, above], -1, -2)  # (N, 3, 3)
         top = joints[0]
-        rotations[:, top] = from_matrix(inverse @ to_matrix(motion.rotations[:, 0]))
-        translations[:, top] = np.einsum(
-            "tij,tj->ti", inverse, motion.translations[:, 0] - world_positions[:, above]
+        rotations[:, top], translations[:, top] = below(
+            clip_at, above, motion.rotations[:, 0], motion.translations[:, 0]
         )
     return Motion(clip_at.skeleton, rotations, translations, motion.fps)

@@ -4,6 +4,7 @@ those joints added at rest, and the output is written without them, on the clip'
 
     with_added_roots      the clip on the model's hierarchy (None where it is not the model's less its roots)
     without_added_roots   a clip on that hierarchy back on the clip's own skeleton
+    in_world, below       a joint's local transform below another joint, in the world, and back
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from elastyle.core.body import same_rest_pose, same_structure
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import from_matrix, to_matrix
 from elastyle.core.skeleton import Skeleton, bare_name
+from elastyle.types import FloatArray
 
 
 def with_added_roots(model: Skeleton, motion: Motion) -> Motion | None:
@@ -52,8 +54,25 @@ def without_added_roots(motion: Motion, skeleton: Skeleton) -> Motion:
     rotations, translations = motion.rotations[:, added:].copy(), motion.translations[:, added:].copy()
     if not (np.any(motion.rotations[:, :added]) or np.any(motion.translations[:, :added])):
         return Motion(skeleton, rotations, translations, motion.fps)  # still at the origin: nothing to move
-    world_rotations, world_positions = motion.world([added - 1])
-    above, origin = world_rotations[:, added - 1], world_positions[:, added - 1]  # (T, 3, 3), (T, 3)
-    rotations[:, 0] = from_matrix(above @ to_matrix(rotations[:, 0]))
-    translations[:, 0] = origin + np.einsum("tij,tj->ti", above, translations[:, 0])
+    rotations[:, 0], translations[:, 0] = in_world(motion, added - 1, rotations[:, 0], translations[:, 0])
     return Motion(skeleton, rotations, translations, motion.fps)
+
+
+def in_world(
+    motion: Motion, above: int, rotation: FloatArray, translation: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """A joint's local rotation (T, 3, exp maps) and translation (T, 3) below joint `above` of the clip (T
+    frames), in the world: the joint above's world transform taken in."""
+    world_rotations, world_positions = motion.world([above])
+    turn, origin = world_rotations[:, above], world_positions[:, above]  # (T, 3, 3), (T, 3)
+    return from_matrix(turn @ to_matrix(rotation)), origin + np.einsum("tij,tj->ti", turn, translation)
+
+
+def below(
+    motion: Motion, above: int, rotation: FloatArray, translation: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """`in_world` undone: a world rotation (T, 3) and position (T, 3) as local ones below joint `above`."""
+    world_rotations, world_positions = motion.world([above])
+    inverse = np.swapaxes(world_rotations[:, above], -1, -2)  # (T, 3, 3)
+    local = np.einsum("tij,tj->ti", inverse, translation - world_positions[:, above])
+    return from_matrix(inverse @ to_matrix(rotation)), local
