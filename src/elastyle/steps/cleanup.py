@@ -30,6 +30,10 @@ ROOT_TOLERANCE_OF_PATH = 0.1  # the adjusted root strays at most this fraction o
 # a lift up to a foot floor (`clean_feet`) eases in and out over this long (seconds), a swing's few frames
 FLOOR_EASE_S = 0.1
 SOFT_REACH = 0.995  # IK straightens a knee up to this fraction of the leg's reach before lowering the pelvis
+# ... and lowers it by at most this fraction of the leg: a pin further out is left short (the foot slides a
+# little) rather than the body sinking (a walk restarting after a stop, its contact from the content held on
+# while the styled foot stepped on, dropped the pelvis from 90 to 13 cm for a second)
+MAX_LOWERING_OF_LEG = 0.1
 
 
 def plant_feet(
@@ -83,7 +87,8 @@ def clean_feet(
     (cubic Hermite, matching position and velocity at the contact's ends) and is carried straight across
     a step's swing. Anywhere, a toe or ankle below `ground_level` is lifted to it. Feet keep their world
     orientation; hip and knee turn in the original knee plane; the pelvis is lowered (smoothly) only
-    where a leg cannot reach. Only leg rotations and the pelvis height change: bone lengths stay exact.
+    where a leg cannot reach, by at most `MAX_LOWERING_OF_LEG` of the leg (a target still out of reach is
+    left short). Only leg rotations and the pelvis height change: bone lengths stay exact.
     world: the clip's world rotations and positions (`Motion.world`) of the feet and their ancestors, when
     already known. foot_floor: (T, F, 2) the lowest height (file units) of each foot's toe and ankle
     (`contact_points` order), -inf where free: the foot is lifted where either is below it, by the lift
@@ -121,7 +126,9 @@ def clean_feet(
     # the upper leg must hang below the leg's root: a two-bone leg off the pelvis has no knee to bend
     legs = np.array([is_below(skeleton, int(chain[0]), int(hip)) for chain, hip in zip(chains, limbs.hips)])
     rotations, translations = motion.rotations.copy(), motion.translations.copy()
-    lowering = _pelvis_lowering(positions, chains[legs], targets[:, legs], ramp_frames)  # (T,)
+    lowering = np.minimum(
+        _pelvis_lowering(positions, chains[legs], targets[:, legs], ramp_frames), MAX_LOWERING_OF_LEG * leg
+    )  # (T,)
     if np.any(lowering > 0):
         shift = np.zeros((motion.num_frames, 3))
         shift[:, 1] = -lowering
