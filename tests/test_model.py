@@ -87,6 +87,20 @@ def test_training_resumes_from_checkpoint(trained, tmp_path: Path, data_path: Pa
     # resumed at the checkpoint's step 300 with a budget of 300: no step taken, the checkpoint's weights
     assert resumed.metadata["steps"] == 300
     np.testing.assert_array_equal(resumed.autoencoder.weights.conv1, model.autoencoder.weights.conv1)
+    # the command line resumes with the settings the checkpoint records, where no flag says otherwise (a
+    # model trained with --recipe shipped was refused when resumed without it)
+    from dataclasses import replace
+
+    from elastyle.cli import build_parser
+    from elastyle.cli.train import train_config
+    from elastyle.training.loop import checkpoint_config
+
+    recorded = checkpoint_config(str(checkpoint))
+    assert recorded == TrainConfig(steps=300, learning_rate=1e-3, seed=0)
+    flags = ["train", data, "-o", "m.npz", "--steps", "600", "--resume", str(checkpoint)]
+    assert train_config(build_parser().parse_args(flags), recorded) == replace(recorded, steps=600)
+    given = train_config(build_parser().parse_args([*flags, "--lr", "5e-4", "--no-mirror"]), recorded)
+    assert given == replace(recorded, steps=600, learning_rate=5e-4, mirror_augment=False)
 
 
 def test_shipped_model_loads_without_torch_and_pickle() -> None:

@@ -33,7 +33,7 @@ def add_train_commands(commands: Any) -> None:
         type=int,
         help="step budget of the whole training (with --resume, the steps already taken count)",
     )
-    trainer.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    trainer.add_argument("--seed", type=int, help="random seed (default 0)")
     trainer.add_argument(
         "--resume",
         help="checkpoint to continue from (MODEL.npz.ckpt is written as training goes; with --force once the "
@@ -41,9 +41,10 @@ def add_train_commands(commands: Any) -> None:
         "first run's",
     )
     trainer.add_argument(
-        "--recipe", choices=("report", "shipped"), default="report",
+        "--recipe", choices=("report", "shipped"),
         help="the flags below as the report sets them, or as the shipped model was trained (MODEL_CARD.md: "
-        "latent 64, untied, and the augmentations); flags given override it (default report)",
+        "latent 64, untied, and the augmentations); flags given override it (default report; with --resume, "
+        "the settings the checkpoint was trained with)",
     )  # fmt: skip
     trainer.add_argument("--batch-size", type=int, help="windows per step (default 16; shipped: 32)")
     trainer.add_argument(
@@ -172,11 +173,11 @@ def _command_train(args: argparse.Namespace) -> int:
         import torch
     except ImportError:
         raise ElastyleError("training needs torch: pip install 'elastyle[train]'") from None
-    from elastyle.training.loop import train
+    from elastyle.training.loop import checkpoint_config, train
 
     if args.threads:
         torch.set_num_threads(args.threads)
-    config = train_config(args)
+    config = train_config(args, checkpoint_config(args.resume) if args.resume else None)
     train(
         args.data, args.output, config, resume=args.resume, force=args.force, progress=not args.no_progress,
         exclude=args.exclude or (),
@@ -184,8 +185,10 @@ def _command_train(args: argparse.Namespace) -> int:
     return 0
 
 
-def train_config(args: argparse.Namespace) -> Any:
-    """The `TrainConfig` of the parsed flags: the `--recipe`'s values where a flag is not given."""
+def train_config(args: argparse.Namespace, resumed: Any = None) -> Any:
+    """The `TrainConfig` of the parsed flags: where a flag is not given, the `--recipe`'s value, else the
+    resumed checkpoint's (`resumed`, its `TrainConfig`), else the report's recipe's. The budget is the
+    flags' own."""
     from dataclasses import replace
 
     from elastyle.training.config import RECIPES
@@ -193,15 +196,15 @@ def train_config(args: argparse.Namespace) -> Any:
     def given(**values: Any) -> dict[str, Any]:
         return {name: value for name, value in values.items() if value is not None}
 
-    recipe = RECIPES[args.recipe]
+    recipe = RECIPES[args.recipe] if args.recipe else resumed or RECIPES["report"]
     model = replace(
         recipe.model,
         **given(hidden_channels=args.hidden, latent_channels=args.latent, kernel_frames=args.kernel,
                 tied=None if args.untied is None else False),
     )  # fmt: skip
     return replace(
-        recipe, model=model, minutes=args.minutes, steps=args.steps, seed=args.seed,
-        mirror_augment=not args.no_mirror, fps=args.fps,
+        recipe, model=model, minutes=args.minutes, steps=args.steps,
+        **given(seed=args.seed, mirror_augment=False if args.no_mirror else None, fps=args.fps),
         **given(batch_size=args.batch_size, learning_rate=args.lr, lr_schedule=args.lr_schedule,
                 window_s=args.window_s, reverse_augment=args.reverse_augment, speed_augment=args.speed_augment,
                 perturb_augment=args.perturb_augment, perturb_scale=args.perturb_scale,

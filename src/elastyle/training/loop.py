@@ -15,7 +15,7 @@ import os
 import time
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import asdict
+from dataclasses import asdict, fields
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +28,7 @@ from elastyle.core.skeleton import Skeleton
 from elastyle.errors import ElastyleError, SkeletonMismatchError
 from elastyle.io.dataset import ClipRef, find_clips, read_up, split_held_out
 from elastyle.model.autoencoder import Autoencoder
+from elastyle.model.config import ModelConfig
 from elastyle.model.depth import DEFAULT_WARN_CM, calibrate
 from elastyle.model.features import FeatureSpec
 from elastyle.model.file import StyleModel, save_model
@@ -92,6 +93,19 @@ def _checkpoint(path: str) -> dict[str, Any]:
     if not isinstance(state, dict) or not {"network", "optimizer", "step", "elapsed_s"} <= set(state):
         raise ElastyleError(f"{path}: not a training checkpoint (MODEL.npz.ckpt)")
     return state
+
+
+def checkpoint_config(path: str) -> TrainConfig | None:
+    """The settings a checkpoint's training ran with (its budget too), or None for a checkpoint written
+    before they were recorded; a one-line `ElastyleError` for a file that is not a checkpoint."""
+    recorded = _checkpoint(path).get("train_config")
+    if not isinstance(recorded, str):
+        return None
+    values = json.loads(recorded)
+    known = {f.name for f in fields(TrainConfig)}
+    model = ModelConfig(**values.pop("model"))
+    values["speed_range"] = tuple(values.get("speed_range", TrainConfig.speed_range))
+    return TrainConfig(model=model, **{name: value for name, value in values.items() if name in known})
 
 
 def train(
@@ -177,7 +191,8 @@ def train(
         except (RuntimeError, ValueError, KeyError):
             raise ElastyleError(
                 f"{resume}: a checkpoint of another model shape or skeleton; resume with the options it was "
-                "trained with (--hidden, --latent, --kernel, --untied, the same clips' skeleton), or start over"
+                "trained with (--recipe, --hidden, --latent, --kernel, --untied, the same clips' skeleton), or "
+                "start over"
             ) from None
         step = int(state["step"])
         resumed_at = step
@@ -239,13 +254,12 @@ def train(
             bar.update(1)
             bar.set_postfix(loss=f"{train_loss:.4f}", val=f"{val_loss:.4f}")
         if step % config.checkpoint_every == 0:
-            _save_checkpoint(
-                checkpoint_path, network, optimizer, step, elapsed_before + time.perf_counter() - started
-            )
+            spent = elapsed_before + time.perf_counter() - started
+            _save_checkpoint(checkpoint_path, network, optimizer, step, spent, config)
     if bar is not None:
         bar.close()
     elapsed = elapsed_before + time.perf_counter() - started
-    _save_checkpoint(checkpoint_path, network, optimizer, step, elapsed)
+    _save_checkpoint(checkpoint_path, network, optimizer, step, elapsed, config)
     if val_batch is not None:
         with torch.no_grad():
             val_loss = float(torch.mean((network(val_batch) - val_batch) ** 2))
@@ -287,7 +301,10 @@ def train(
     return model
 
 
-def _save_checkpoint(path: Path, network: Any, optimizer: Any, step: int, elapsed_s: float) -> None:
+def _save_checkpoint(
+    path: Path, network: Any, optimizer: Any, step: int, elapsed_s: float, config: TrainConfig
+) -> None:
+    """The training's state, and the settings it runs with (`checkpoint_config`), written atomically."""
     import torch
 
     temporary = path.with_suffix(".tmp")
@@ -297,6 +314,7 @@ def _save_checkpoint(path: Path, network: Any, optimizer: Any, step: int, elapse
             "optimizer": optimizer.state_dict(),
             "step": step,
             "elapsed_s": elapsed_s,
+            "train_config": json.dumps(asdict(config)),
         },
         temporary,
     )
