@@ -265,3 +265,18 @@ def test_a_name_the_archive_lacks_is_answered_with_its_nearest_and_a_batch_names
     (tmp_path / "dataset-2_walk_normal_005.bvh").write_text("taken")
     assert main(["transfer", walk, other, "--style", walk, "-o", str(tmp_path), "--no-cache"]) == 1
     assert "--skip-existing" in capsys.readouterr().err
+
+
+def test_info_describes_a_model_file(capsys: pytest.CaptureFixture[str]) -> None:
+    """`elastyle info MODEL.npz` prints the model's shape, skeleton, training and held-out figures (a model
+    file read as a clip was refused as binary data)."""
+    from elastyle.model.file import default_model_path, load_model
+
+    path = str(default_model_path())
+    assert main(["info", path]) == 0
+    printed = capsys.readouterr().out
+    model = load_model(path)
+    assert f"latent {model.autoencoder.config.latent_channels}" in printed
+    assert f"joints:   {model.skeleton.num_joints} (" in printed
+    median = model.metadata["held_out_joint_error_cm"]["median"]
+    assert f"held out: joint error median {median:g} cm" in printed

@@ -23,7 +23,11 @@ def _command_info(args: argparse.Namespace) -> int:
     from elastyle.core.body import centimetres_per_unit, standing_height
     from elastyle.io.dataset import find_clips
 
-    for clip in find_clips(args.clip):
+    models = [path for path in args.clip if path.lower().endswith(".npz")]
+    for path in models:
+        _print_model_info(path)
+    clips = [path for path in args.clip if path not in models]
+    for clip in find_clips(clips) if clips else ():
         motion, layout = clip.read()
         skeleton = motion.skeleton
         channel_counts = sorted({len(c) for c in layout.channels})
@@ -43,6 +47,45 @@ def _command_info(args: argparse.Namespace) -> int:
         )
         print(f"  up:       +{layout.up.upper()}")
     return 0
+
+
+def _print_model_info(path: str) -> None:
+    """A model file's shape, skeleton, training and held-out figures, as `info` prints them."""
+    from elastyle.model.file import load_model
+
+    model = load_model(path)
+    config, metadata = model.autoencoder.config, model.metadata
+    skeleton = model.skeleton
+    print(path)
+    print(
+        f"  model:    latent {config.latent_channels}, hidden {config.hidden_channels}, kernel "
+        f"{config.kernel_frames} frames, {'tied' if config.tied else 'untied'} decoder, at {model.fps:g} fps"
+    )
+    print(f"  joints:   {skeleton.num_joints} ({', '.join(skeleton.names)})")
+    if "steps" in metadata:
+        print(
+            f"  trained:  {metadata['steps']} steps in {metadata.get('training_minutes', 0):g} min on "
+            f"{metadata.get('training_clips', '?')} clips, {metadata.get('held_out_clips', '?')} held out"
+        )
+    recipe = metadata.get("train_config")
+    if isinstance(recipe, dict):
+        augment = ", ".join(
+            f"{name} {recipe[key]:g}"
+            for name, key in (("reverse", "reverse_augment"), ("speed", "speed_augment"),
+                              ("perturb", "perturb_augment"), ("position loss", "position_loss"))
+            if recipe.get(key)
+        )  # fmt: skip
+        print(
+            f"  recipe:   batch {recipe.get('batch_size')}, learning rate {recipe.get('learning_rate'):g} "
+            f"{recipe.get('lr_schedule', 'constant')}, windows {recipe.get('window_s'):g} s"
+            f"{', mirrored' if recipe.get('mirror_augment') else ''}{', ' + augment if augment else ''}"
+        )
+    error = metadata.get("held_out_joint_error_cm")
+    if isinstance(error, dict):
+        print(
+            f"  held out: joint error median {error['median']:g} cm, 95th percentile {error['p95']:g} cm; "
+            f"out-of-depth warning above {metadata.get('reconstruction_warn_cm', 0):g} cm"
+        )
 
 
 def _command_convert(args: argparse.Namespace) -> int:
@@ -95,8 +138,15 @@ def build_parser() -> _OneLineParser:
     parser.add_argument("--up", choices=READ_UPS, default="auto", help=UP_HELP)
     commands = parser.add_subparsers(dest="command", required=True)
 
-    info = commands.add_parser("info", help="joints, channels, frames, fps, duration and height of clips")
-    info.add_argument("clip", nargs="+", help="BVH or .glb files, folders, globs or zip archives of them")
+    info = commands.add_parser(
+        "info",
+        help="joints, channels, frames, fps, duration and height of clips; a model file's shape and training",
+    )
+    info.add_argument(
+        "clip",
+        nargs="+",
+        help="BVH or .glb files, folders, globs or zip archives of them, or model files (.npz)",
+    )
     info.set_defaults(run=_command_info)
 
     convert = commands.add_parser(
