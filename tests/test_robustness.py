@@ -626,3 +626,16 @@ def test_one_number_ending_every_name_is_not_a_take() -> None:
     ]  # by the names' hash, not all held out
     numbered = [ClipRef(f"walk_{take:03d}.bvh") for take in range(1, 11)]
     assert [c.name for c in split_held_out(numbered)[1]] == ["walk_005.bvh", "walk_010.bvh"]
+
+
+def test_clip_labels_are_read_after_any_prefix() -> None:
+    """The benchmark's labels come from names <content>_<style>_<take> after any prefix, so a user's own
+    clips (hero_walk_proud_012.bvh) are benchmarked as the dataset's are (they were found to hold none)."""
+    from elastyle.io.dataset import ClipRef, DatasetLabel, dataset_label
+
+    assert dataset_label(ClipRef("dataset-2_walk_normal_005.bvh")) == DatasetLabel("walk", "normal", 5)
+    assert dataset_label(ClipRef("rig/hero_walk-turn-left_normal_010.bvh")) == DatasetLabel(
+        "walk-turn-left", "normal", 10
+    )
+    assert dataset_label(ClipRef("Hero_Walk_Proud_012.bvh")) == DatasetLabel("walk", "proud", 12)
+    assert dataset_label(ClipRef("take10.bvh")) is None and dataset_label(ClipRef("walk_10.bvh")) is None

@@ -18,7 +18,15 @@ from elastyle.core.motion import Motion
 from elastyle.errors import DatasetError
 from elastyle.eval.benchmark import benchmark_pairs, score_pairs
 from elastyle.eval.classify import RidgeClassifier, describe
-from elastyle.io.dataset import ClipRef, DatasetLabel, dataset_label, find_clips, is_held_out, labelled_clips
+from elastyle.io.dataset import (
+    LABELLED_NAME_TEXT,
+    ClipRef,
+    DatasetLabel,
+    dataset_label,
+    find_clips,
+    is_held_out,
+    labelled_clips,
+)
 from elastyle.model.features import FeatureSpec
 from elastyle.model.file import StyleModel
 from elastyle.steps.config import TransferConfig
@@ -81,8 +89,9 @@ def train_classifiers(data: str, model: StyleModel, per_class: int = 12) -> Clas
     if len(set(styles)) < 2 or len(set(contents)) < 2 or not len(x_test):
         raise DatasetError(
             f"{data}: the benchmark's classifiers need training takes (take % 5 != 0) of at least two styles "
-            f"and two content types, and held-out takes (% 5 == 0); found {len(x_train)} training clips of "
-            f"{len(set(styles))} style(s) and {len(set(contents))} content type(s), {len(x_test)} held-out"
+            f"and two content types, and held-out takes (% 5 == 0), in files named {LABELLED_NAME_TEXT}; found "
+            f"{len(x_train)} training clips of {len(set(styles))} style(s) and {len(set(contents))} content "
+            f"type(s), {len(x_test)} held-out"
         )
     style, content = RidgeClassifier.fit(x_train, styles), RidgeClassifier.fit(x_train, contents)
     return Classifiers(

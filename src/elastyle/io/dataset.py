@@ -218,11 +218,14 @@ def _note_turned(name: str) -> None:
     )  # fmt: skip
 
 
-_BANDAI_NAME = re.compile(r"dataset-\d+_(?P<content>[a-z-]+)_(?P<style>[a-z]+)_(?P<take>\d+)$")
+# <content>_<style>_<take> ending a file name, after any prefix: the dataset's dataset-2_walk_normal_005, or
+# a user's own hero_walk_proud_012 (content types may hold hyphens: walk-turn-left)
+LABELLED_NAME = re.compile(r"(?:^|_)(?P<content>[a-z][a-z0-9-]*)_(?P<style>[a-z][a-z0-9]*)_(?P<take>\d+)$")
+LABELLED_NAME_TEXT = "<content>_<style>_<take>.bvh after any prefix, such as dataset-2_walk_normal_005.bvh"
 
 
 class DatasetLabel(NamedTuple):
-    """What a Bandai Namco dataset file name says: content type, style and take number."""
+    """What a labelled file name (`LABELLED_NAME`) says: content type, style and take number."""
 
     content: str
     style: str
@@ -230,8 +233,8 @@ class DatasetLabel(NamedTuple):
 
 
 def dataset_label(clip: ClipRef) -> DatasetLabel | None:
-    """The label of a Bandai Namco dataset file name, or None for other names."""
-    match = _BANDAI_NAME.match(clip.stem)
+    """The label of a file named as the dataset's are (`LABELLED_NAME`, any letter case), or None."""
+    match = LABELLED_NAME.search(clip.stem.lower())
     if match is None:
         return None
     return DatasetLabel(match["content"], match["style"], int(match["take"]))
@@ -257,9 +260,6 @@ def is_held_out(clip: ClipRef, every: int = HOLDOUT_EVERY, numbered: bool = True
     """The one train / held-out split, by whole files: takes numbered % every == 0, the take being the
     number that ends the file name (`walk_proud_005.bvh`, `take10.bvh`); names without one (or all names,
     not `numbered`: where one number ends every name of a set) by a stable hash of the file name."""
-    label = dataset_label(clip)
-    if label is not None:
-        return label.take % every == 0
     stem = Path(clip.name).name.rsplit(".", 1)[0]
     take = _TAKE_NUMBER.search(stem) if numbered else None
     if take is not None:
