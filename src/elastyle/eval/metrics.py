@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from elastyle.core.body import centimetres_per_unit, find_limbs
+from elastyle.core.foot_tips import with_foot_tip_positions
 from elastyle.core.motion import Motion
 from elastyle.core.smoothing import frame_steps
 from elastyle.types import BoolArray, FloatArray
@@ -20,8 +21,9 @@ def foot_contacts(motion: Motion, positions: FloatArray | None = None) -> BoolAr
 
 def foot_skating_cm_s(motion: Motion, positions: FloatArray | None = None) -> float:
     """Mean horizontal toe speed (cm/s) over the frames where the clean-up's own contact detector finds that
-    foot planted: how well the clean-up pins what it detects (`floor_skating_cm_s` is the honest figure)."""
-    positions = motion.positions() if positions is None else positions
+    foot planted: how well the clean-up pins what it detects (`floor_skating_cm_s` is the honest figure).
+    A foot without a toe joint is read at its End Site (`core.foot_tips`)."""
+    motion, positions = with_foot_tip_positions(motion, positions)
     limbs = find_limbs(motion.skeleton)
     contacts = foot_contacts(motion, positions)[1:] & foot_contacts(motion, positions)[:-1]  # (T-1, F)
     velocity = np.diff(positions[:, limbs.toes][:, :, [0, 2]], axis=0) * motion.fps  # (T-1, F, 2)
@@ -37,8 +39,9 @@ def floor_skating_cm_s(motion: Motion, positions: FloatArray | None = None) -> f
     """Mean horizontal toe speed (cm/s) while touching the clip's own floor, found without any contact
     detector (so a clean-up cannot grade itself): a toe (an ankle on a skeleton without toes) touches in a
     frame when it is within 2 cm of its own 5th-percentile height and moves vertically slower than 15 cm/s,
-    and the frame counts with weight 2 - 2^(height / 2 cm) (1 on the floor, 0 at 2 cm). NaN without legs."""
-    positions = motion.positions() if positions is None else positions
+    and the frame counts with weight 2 - 2^(height / 2 cm) (1 on the floor, 0 at 2 cm). NaN without legs.
+    A foot without a toe joint is read at its End Site (`core.foot_tips`)."""
+    motion, positions = with_foot_tip_positions(motion, positions)
     limbs = find_limbs(motion.skeleton)
     joints = limbs.toes if len(limbs.toes) else limbs.ankles
     if len(joints) == 0 or motion.num_frames < 2:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from elastyle.core.body import Limbs, find_limbs, leg_length
+from elastyle.core.foot_tips import on_own_joints, with_foot_tips
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import lengths
 from elastyle.core.skeleton import Skeleton
@@ -43,6 +44,18 @@ def plant_feet(
     foot_floor: FloatArray | None = None,
     ground: float | None = None,
 ) -> Motion:
+    """The whole clean-up (see `_plant_feet`), a toe-less foot read at its End Site (`core.foot_tips`)."""
+    extended = _plant_feet(with_foot_tips(motion), root_share, also, foot_floor, ground)
+    return on_own_joints(extended, motion.skeleton)
+
+
+def _plant_feet(
+    motion: Motion,
+    root_share: float | FloatArray,
+    also: BoolArray | None = None,
+    foot_floor: FloatArray | None = None,
+    ground: float | None = None,
+) -> Motion:
     """The whole clean-up: contacts found, the root moved by `root_share` (or per frame (T,)) of the stance feet's drift
     (`adjust_root_speed`, skipped at 0), then the feet pinned (`clean_feet`). One forward kinematics pass
     serves all three: moving the root moves the legs with it and turns nothing. also: (T, F) contacts known
@@ -51,13 +64,13 @@ def plant_feet(
     of the ground (`held_footing`); ground: the toes' ground level (`clean_feet`)."""
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
-        return clean_feet(motion)
+        return _clean_feet(motion)
     world_rotations, positions = motion.world(limbs.feet)
     contacts = detect_contacts(motion, positions)
     if also is not None:
         contacts = contacts | _checked(also, motion, limbs)
     if np.all(np.asarray(root_share) <= 0):
-        return clean_feet(
+        return _clean_feet(
             motion, contacts, world=(world_rotations, positions), foot_floor=foot_floor, ground=ground
         )
     shift = _root_shift(motion, contacts, (world_rotations, positions), root_share)  # (T, 3) world
@@ -66,12 +79,24 @@ def plant_feet(
     )
     positions = positions.copy()
     positions[:, _carried_by_pelvis(skeleton, limbs)] += shift[:, None]
-    return clean_feet(
+    return _clean_feet(
         moved, contacts, world=(world_rotations, positions), foot_floor=foot_floor, ground=ground
     )
 
 
 def clean_feet(
+    motion: Motion,
+    contacts: BoolArray | None = None,
+    blend_s: float = 0.15,
+    foot_floor: FloatArray | None = None,
+    ground: float | None = None,
+) -> Motion:
+    """Feet pinned (see `_clean_feet`), a toe-less foot read at its End Site (`core.foot_tips`)."""
+    extended = _clean_feet(with_foot_tips(motion), contacts, blend_s, None, foot_floor, ground)
+    return on_own_joints(extended, motion.skeleton)
+
+
+def _clean_feet(
     motion: Motion,
     contacts: BoolArray | None = None,
     blend_s: float = 0.15,
@@ -159,6 +184,7 @@ def held_footing(reference: Motion, where: BoolArray) -> tuple[BoolArray, FloatA
     keeps the reference's clearance near the ground, leaves every higher part of the swing to the change,
     and does not lift a heel that strikes flatter than the reference's (its clearance is already the
     heel's)."""
+    reference = with_foot_tips(reference)  # a toe-less foot's End Site as its toe
     limbs = find_limbs(reference.skeleton)
     if len(limbs.toes) == 0:  # no feet to hold
         return np.zeros((reference.num_frames, 0), dtype=bool), np.zeros((reference.num_frames, 0, 2))

@@ -12,6 +12,7 @@ from typing import Final
 import numpy as np
 
 from elastyle.core.body import Limbs, find_limbs, leg_length
+from elastyle.core.foot_tips import with_foot_tips
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import lengths
 from elastyle.core.smoothing import frame_steps
@@ -36,7 +37,10 @@ ENTER_VERTICAL_LEGS_S = 0.2  # and a sliding foot enters contact when it rises o
 
 
 def ground_level(motion: Motion, positions: FloatArray | None = None) -> float:
-    """Height (file units) of the toes' ground level: the 5th percentile of toe heights over all feet."""
+    """Height (file units) of the toes' ground level: the 5th percentile of toe heights over all feet (a
+    foot without a toe joint at its End Site, `core.foot_tips`, unless `positions` of the clip are given)."""
+    if positions is None:
+        motion = with_foot_tips(motion)
     toes = find_limbs(motion.skeleton).toes
     positions = motion.positions(toes) if positions is None else positions
     return float(np.percentile(positions[:, toes, 1], GROUND_PERCENTILE, method=PERCENTILE_METHOD))
@@ -62,8 +66,11 @@ def detect_contacts(motion: Motion, positions: FloatArray | None = None) -> Bool
     """(T, F) True where foot f is planted (its toe or its heel), F = len(find_limbs(skeleton).toes).
 
     The union of `detect_point_contacts`' toe and heel tracks, with gaps shorter than `MIN_CONTACT_S`
-    filled (a heel lifting a frame before the toe lands is one contact).
+    filled (a heel lifting a frame before the toe lands is one contact). A foot without a toe joint is read
+    at its End Site (`core.foot_tips`) unless `positions` of the clip are given.
     """
+    if positions is None:
+        motion = with_foot_tips(motion)
     contacts: BoolArray = np.any(detect_point_contacts(motion, positions), axis=2)  # (T, F)
     _drop_short_runs(contacts, _min_contact_frames(motion.fps), gaps_only=True)
     return contacts
