@@ -288,7 +288,9 @@ def test_a_raised_hand_given_a_waves_style_does_not_wave(model, dataset_clips: l
 
 def test_the_arms_of_a_walk_given_a_walks_style_are_swapped(model, clips: dict[str, Motion]) -> None:  # type: ignore[no-untyped-def]
     result = transfer(clips["walk_normal_005"], clips["walk_masculine_010"], model=model)
-    for patch in result.explain["styles"][0]["patches"]:
+    patches = result.explain["styles"][0]["patches"]
+    assert patches[0]["parts"]["left-arm"]["content_share"] > 0.1  # eased in from the content's
+    for patch in patches[1:-1]:
         for arm in ("left-arm", "right-arm"):
             assert patch["parts"][arm]["content_share"] < 0.01, patch
 
@@ -405,3 +407,23 @@ def test_legs_that_keep_a_walk_under_a_standing_clips_style_keep_its_path(
     assert travel(result.motion) == pytest.approx(travel(walk), rel=0.02)  # 859 of 956 cm before (908 at 0.5)
     if strength == 1.0:  # the feet are planted as far as the style acts
         assert _planted_toe_speed(result.motion) < 0.6 * _planted_toe_speed(walk)  # 3.6 against 8.7 cm/s
+
+
+def test_a_gesture_starts_and_ends_with_the_contents_arms(model, dataset_clips: list[ClipRef]) -> None:  # type: ignore[no-untyped-def]
+    """A two-handed wave given an active wave's style: the first patch's window, matched over the rise and
+    the waving, began with both hands raised (84 cm above where the content's hang). Each arm keeps the
+    content's action at the clip's ends, easing to the style's over half a patch."""
+    content = clip_named(dataset_clips, "dataset-2_wave-both-hands_normal_010").read()[0]
+    style = clip_named(dataset_clips, "dataset-2_wave-both-hands_active_010").read()[0]
+    output = transfer(content, style, model=model).motion
+    hands = [content.skeleton.index(name) for name in ("Hand_L", "Hand_R")]
+    pelvis = content.skeleton.pelvis
+
+    def heights(motion: Motion, frame: int) -> np.ndarray:
+        positions = motion.positions()[frame]
+        return positions[hands, 1] - positions[pelvis, 1]  # (2,) cm above the pelvis
+
+    for frame in (0, -1):  # before: 84 cm at the start
+        assert np.abs(heights(output, frame) - heights(content, frame)).max() < 10.0
+    waving = output.positions()[:, hands, 1] - output.positions()[:, [pelvis], 1]
+    assert np.median(waving) > heights(content, 0).max() + 40.0  # it still waves, hands raised, between them

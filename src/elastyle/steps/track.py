@@ -51,6 +51,11 @@ TEMPO_MOVE = 0.25
 MIN_TEMPO_LENGTHS = 5
 MIN_TEMPO_PATCHES = 2  # patches needed to read a tempo
 KEEP_RAMP = 0.15  # a part's share of the content's action rises from 0 to 1 over this much mismatch
+# each arm keeps the content's action at the clip's first and last frames, the share easing to the matched
+# windows' over this many patches: there one of the two half-shifted sequences alone covers the clip, and
+# its window, matched over a span that mixes the content's rest pose with its action, may begin or end mid-
+# gesture (27 of 150 held-out gesture and cross outputs had a hand over 0.3 legs from the content's at an end)
+ARM_ENDS_PATCHES = 0.5
 MISMATCH_FLOOR = 0.3  # legs (per second): what a part's mismatch is relative to, at the least
 
 
@@ -232,11 +237,17 @@ def style_track(
             for sequence in (patches, shifted)
         )
         measures[part] = arm._asdict()
-        keep[part] = np.maximum(
-            keep_share(on_grid(arm.hand_offset, shifted_arm.hand_offset), config.arm_offset_above, ease),
-            keep_share(
-                on_grid(arm.rhythm_difference, shifted_arm.rhythm_difference), config.arm_rhythm_above, ease
-            ),
+        keep[part] = np.max(
+            [
+                keep_share(on_grid(arm.hand_offset, shifted_arm.hand_offset), config.arm_offset_above, ease),
+                keep_share(
+                    on_grid(arm.rhythm_difference, shifted_arm.rhythm_difference),
+                    config.arm_rhythm_above,
+                    ease,
+                ),
+                end_share(grid, ARM_ENDS_PATCHES * patch_frames),
+            ],
+            axis=0,
         )
     # colour with the style's statistics
     coloured = library.stats.colour(white, config.whiten_floor)
@@ -311,6 +322,14 @@ def keep_share(mismatch: FloatArray, above: float, ease_steps: float) -> FloatAr
     """(G,) 0 where a part's mismatch (G,) is at most `above`, rising smoothly to 1 at `KEEP_RAMP` over it,
     eased in and out in time (Gaussian, sigma `ease_steps` grid steps)."""
     return _eased((mismatch - above) / KEEP_RAMP, ease_steps)
+
+
+def end_share(grid: FloatArray, span: float) -> FloatArray:
+    """(G,) 1 at the grid's (G,) first and last times, easing (smoothstep) to 0 at `span` content frames
+    from them."""
+    distance = np.minimum(grid - grid[0], grid[-1] - grid) if len(grid) else grid
+    x = np.clip(1 - distance / max(span, 1e-9), 0.0, 1.0)
+    return x * x * (3 - 2 * x)
 
 
 def fallback_share(similarity: FloatArray, below: float, ease_steps: float) -> FloatArray:
