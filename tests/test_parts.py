@@ -427,3 +427,27 @@ def test_a_gesture_starts_and_ends_with_the_contents_arms(model, dataset_clips: 
         assert np.abs(heights(output, frame) - heights(content, frame)).max() < 10.0
     waving = output.positions()[:, hands, 1] - output.positions()[:, [pelvis], 1]
     assert np.median(waving) > heights(content, 0).max() + 40.0  # it still waves, hands raised, between them
+
+
+def test_a_sideways_walk_is_told_its_legs_keep_their_own_steps(
+    model, clips: dict[str, Motion], caplog
+) -> None:  # type: ignore[no-untyped-def]
+    """A walk whose body faces 90 degrees off its path (its hips turned about the vertical) given a forward
+    walk's style: a note says its legs keep their own action, as a backward walk's does (before: silent);
+    a forward walk gets no such note."""
+    from elastyle.core.rotations import multiply
+
+    walk, style = clips["walk_normal_005"], clips["walk_masculine_010"]
+    hips = walk.skeleton.pelvis
+    rotations = walk.rotations.copy()
+    rotations[:, hips] = multiply(
+        np.broadcast_to([0.0, np.pi / 2, 0.0], (walk.num_frames, 3)), rotations[:, hips]
+    )
+    sideways = Motion(walk.skeleton, rotations, walk.translations, walk.fps)
+    with caplog.at_level("WARNING"):
+        result = transfer(sideways, style, model=model)
+    assert "walks sideways" in caplog.text and any("walks sideways" in n for n in result.explain["notes"])
+    caplog.clear()
+    with caplog.at_level("WARNING"):
+        transfer(walk, style, model=model)
+    assert "sideways" not in caplog.text

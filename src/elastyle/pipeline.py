@@ -40,7 +40,13 @@ from elastyle.errors import ClipTooShortError, ConfigError, ResultError
 from elastyle.model.depth import depth_warning, reconstruction_error_cm
 from elastyle.model.features import RootPath
 from elastyle.model.file import StyleModel, load_model
-from elastyle.steps.action import action_channels, part_channels, still_frames, walks_backwards
+from elastyle.steps.action import (
+    action_channels,
+    part_channels,
+    still_frames,
+    walks_backwards,
+    walks_sideways,
+)
 from elastyle.steps.cleanup import held_footing, lift_to_ground, plant_feet
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.contacts import ground_level
@@ -165,6 +171,12 @@ def transfer(
         _say(notes, (
             f"note: {content_name} walks backwards; the style's forward steps will not match its legs, which "
             "then keep their own action: --reverse-style adds the style clips played backwards"
+        ))  # fmt: skip
+    elif walks_sideways(actions):
+        _say(notes, (
+            f"note: {content_name} walks sideways; the style's steps will match its legs only where the style "
+            "clips step sideways too, elsewhere its legs keep their own action and pace (the style shows in "
+            "the upper body)"
         ))  # fmt: skip
     columns = part_channels(working.skeleton)  # each body part's action columns
     still = still_frames(actions, working.skeleton, fps)  # (T,) a stop or an idle: no pace to take

@@ -110,3 +110,12 @@ BACKWARDS_SHARE = 0.5  # ... and a clip that does so for over this share of its 
 def walks_backwards(actions: FloatArray) -> bool:
     """Whether a clip of `action_channels` (T, A) travels backwards, against its heading, most of the time."""
     return bool(np.mean(actions[:, 0] < -BACKWARDS_LEGS_S) > BACKWARDS_SHARE) if len(actions) else False
+
+
+def walks_sideways(actions: FloatArray) -> bool:
+    """Whether a clip of `action_channels` (T, A) travels sideways, across its heading faster than along it
+    and faster than `BACKWARDS_LEGS_S`, most (`BACKWARDS_SHARE`) of the time."""
+    if not len(actions):
+        return False
+    across = np.abs(actions[:, 1])
+    return bool(np.mean((across > BACKWARDS_LEGS_S) & (across > np.abs(actions[:, 0]))) > BACKWARDS_SHARE)
