@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -41,6 +42,7 @@ class StyleLibrary:
     backwards: list[bool] = field(default_factory=list)
     _white: dict[float, FloatArray] = field(default_factory=dict)
     _windows: dict[tuple[int, float, float, int], StyleWindows] = field(default_factory=dict)
+    _derived: dict[Hashable, Any] = field(default_factory=dict)
 
     def white(self, floor: float) -> FloatArray:
         """The library's latents (N, Z) whitened with its own pooled statistics (eigenvalue `floor`)."""
@@ -58,6 +60,13 @@ class StyleLibrary:
             frames = match_frames(self.white(floor), self.actions, action_weight)
             self._windows[key] = StyleWindows(frames, self.clip_starts, patch_frames, frame_step)
         return self._windows[key]
+
+    def derived(self, key: Hashable, compute: Callable[[], Any]) -> Any:
+        """A value computed from this library alone (its actions' measures, per patch length or body part),
+        computed on the first call with `key` and kept: every transfer against the library reads it."""
+        if key not in self._derived:
+            self._derived[key] = compute()
+        return self._derived[key]
 
     def locate(self, library_frame: int) -> tuple[int, int]:
         """(clip index, frame within that clip) of a library frame."""

@@ -8,6 +8,7 @@ of one style library. Strength, transitions and blends are weights over tracks (
 from __future__ import annotations
 
 import logging
+from functools import partial
 from typing import NamedTuple
 
 import numpy as np
@@ -202,7 +203,9 @@ def style_track(
         shifted_mismatch = part_mismatch(content_actions, library.actions, shifted, patch_frames, leg_columns)
         # a turning walk matched against straight windows keeps its turn, and the other way round
         content_turning = sustained_turning(content_actions, np.zeros(1, dtype=np.int64), fps)[:, None]
-        library_turning = sustained_turning(library.actions, library.clip_starts, fps)[:, None]
+        library_turning = library.derived(
+            ("turning", fps), lambda: sustained_turning(library.actions, library.clip_starts, fps)[:, None]
+        )
         turning = [
             mean_gap(content_turning, library_turning, sequence, patch_frames)
             for sequence in (patches, shifted)
@@ -228,9 +231,10 @@ def style_track(
             continue
         content_hand, library_hand = content_actions[:, columns[:3]], library.actions[:, columns[:3]]
         one_clip = np.zeros(1, dtype=np.int64)
-        content_rhythm = steady_rhythm(back_and_forth(content_hand, one_clip, fps), one_clip, fps)
-        library_rhythm = steady_rhythm(
-            back_and_forth(library_hand, library.clip_starts, fps), library.clip_starts, fps
+        content_rhythm = _steady_hand_rhythm(content_hand, one_clip, fps)
+        library_rhythm = library.derived(
+            ("rhythm", tuple(columns[:3].tolist()), fps),
+            partial(_steady_hand_rhythm, library_hand, library.clip_starts, fps),
         )
         arm, shifted_arm = (
             arm_mismatch(content_hand, content_rhythm, library_hand, library_rhythm, sequence, patch_frames)
@@ -256,6 +260,12 @@ def style_track(
     )
 
 
+def _steady_hand_rhythm(hand: FloatArray, clip_starts: IntArray, fps: float) -> FloatArray:
+    """(T,) how steadily a hand (T, 3), clips end to end from clip_starts (K,), goes back and forth
+    (`steps.arms.back_and_forth` read as `steady_rhythm`)."""
+    return steady_rhythm(back_and_forth(hand, clip_starts, fps), clip_starts, fps)
+
+
 def side_guard(
     content_actions: FloatArray, library: StyleLibrary, patch_frames: int, part_columns: dict[str, IntArray]
 ) -> SideGuard | None:
@@ -264,14 +274,19 @@ def side_guard(
     if not any(library.mirrored) or not {"left-arm", "right-arm"} <= part_columns.keys():
         return None
     left, right = part_columns["left-arm"][:3], part_columns["right-arm"][:3]
-    sides = library.actions[:, left] - library.actions[:, right]  # (N_frames, 3) legs
-    total = np.concatenate([np.zeros((1, 3)), np.cumsum(sides, axis=0)])
-    num_windows = max(len(sides) - patch_frames + 1, 0)
-    windows = (
-        total[patch_frames : patch_frames + num_windows] - total[:num_windows]
-    ) / patch_frames  # (N, 3)
-    clip = np.searchsorted(library.clip_starts, np.arange(num_windows), side="right") - 1
-    mirrored = np.asarray(library.mirrored, dtype=bool)[clip]
+
+    def library_sides() -> tuple[FloatArray, BoolArray]:
+        sides = library.actions[:, left] - library.actions[:, right]  # (N_frames, 3) legs
+        total = np.concatenate([np.zeros((1, 3)), np.cumsum(sides, axis=0)])
+        num_windows = max(len(sides) - patch_frames + 1, 0)
+        windows = (
+            total[patch_frames : patch_frames + num_windows] - total[:num_windows]
+        ) / patch_frames  # (N, 3)
+        clip = np.searchsorted(library.clip_starts, np.arange(num_windows), side="right") - 1
+        return windows, np.asarray(library.mirrored, dtype=bool)[clip]
+
+    key = ("sides", tuple(left.tolist()), tuple(right.tolist()), patch_frames)
+    windows, mirrored = library.derived(key, library_sides)
     return SideGuard(content_actions[:, left] - content_actions[:, right], windows, mirrored)
 
 
