@@ -236,9 +236,8 @@ class SideGuard(NamedTuple):
     windows: FloatArray
     mirrored: BoolArray
 
-    def excluded(self, starts: npt.ArrayLike, lengths: npt.ArrayLike, count: int) -> Exclusion:
-        """The exclusion for Q queries spanning content frames [start, start + length) (Q,) each."""
-        spans = sample_windows(self.content, starts, lengths, count).mean(axis=1)  # (Q, 3)
+    def excluded(self, spans: FloatArray) -> Exclusion:
+        """The exclusion for Q queries whose content spans have the mean sides spans (Q, 3) (`sampled`)."""
         span_energy = np.sum(spans**2, axis=1)[:, None]  # (Q, 1)
 
         def chunk(first: int, last: int) -> BoolArray:
@@ -251,6 +250,24 @@ class SideGuard(NamedTuple):
             return (gaps > SIDE_CHANGE_LEGS**2) & mirrored
 
         return chunk
+
+
+def sampled(
+    frames: FloatArray, guard: SideGuard | None, starts: npt.ArrayLike, lengths: npt.ArrayLike, count: int
+) -> tuple[FloatArray, Exclusion | None]:
+    """The queries (Q, count, W) over content spans [start, start + length) (Q,) of the search's content
+    frames (T, W), and the guard's exclusion for them (None without a guard). frames: the content's
+    (`with_sides`), with the guard's sides beside them: both are read at the same positions at once."""
+    if guard is None:
+        return sample_windows(frames, starts, lengths, count), None
+    both = sample_windows(frames, starts, lengths, count)  # (Q, count, W + 3)
+    width = frames.shape[1] - guard.content.shape[1]
+    return both[:, :, :width], guard.excluded(both[:, :, width:].mean(axis=1))
+
+
+def with_sides(white_content: FloatArray, guard: SideGuard | None) -> FloatArray:
+    """The search's content frames (T, W), with the guard's sides (T, 3) beside them for `sampled`."""
+    return white_content if guard is None else np.concatenate([white_content, guard.content], axis=1)
 
 
 STILL_SHARE = 0.9  # a patch whose content frames are still for at least this share is read unstretched
@@ -269,6 +286,7 @@ def search_sequential(
     idle has no pace to take (every stretch of it looks alike, so the best match's would be chance)."""
     patch_frames = windows.patch_frames
     num_frames = white_content.shape[0]
+    frames = with_sides(white_content, guard)
     patches: list[Patch] = []
     cursor = 0.0
     while cursor < num_frames or not patches:
@@ -277,9 +295,7 @@ def search_sequential(
         if len(span) and np.mean(span) >= STILL_SHARE:
             lengths = np.array([patch_frames])
         starts = np.full(len(lengths), cursor)
-        queries = sample_windows(white_content, starts, lengths, patch_frames)
-        excluded = None if guard is None else guard.excluded(starts, lengths, patch_frames)
-        index, similarity = windows.best(queries, excluded)
+        index, similarity = windows.best(*sampled(frames, guard, starts, lengths, patch_frames))
         choice = int(np.argmax(similarity))
         patches.append(Patch(cursor, float(lengths[choice]), int(index[choice]), float(similarity[choice])))
         cursor += float(lengths[choice])
@@ -299,8 +315,7 @@ def search_fixed(
     centres = (np.arange(num_patches) + 0.5) * patch_frames  # (P,)
     lengths = np.tile(source_lengths, num_patches)  # (P * S,)
     starts = np.repeat(centres, len(source_lengths)) - lengths / 2
-    queries = sample_windows(white_content, starts, lengths, patch_frames)
-    excluded = None if guard is None else guard.excluded(starts, lengths, patch_frames)
+    queries, excluded = sampled(with_sides(white_content, guard), guard, starts, lengths, patch_frames)
     index, similarity = (a.reshape(num_patches, -1) for a in windows.best(queries, excluded))  # (P, S)
     choice = np.argmax(similarity, axis=1)
     # placed at the content's grid: consumes exactly L content frames whatever the stretch
@@ -321,7 +336,6 @@ def half_shifted(
     if not spans:
         return []
     starts, lengths = np.array(spans).T
-    queries = sample_windows(white_content, starts, lengths, windows.patch_frames)
-    excluded = None if guard is None else guard.excluded(starts, lengths, windows.patch_frames)
-    index, similarity = windows.best(queries, excluded)
+    frames = with_sides(white_content, guard)
+    index, similarity = windows.best(*sampled(frames, guard, starts, lengths, windows.patch_frames))
     return [Patch(s, n, int(i), float(v)) for (s, n), i, v in zip(spans, index, similarity)]
