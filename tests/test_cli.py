@@ -51,6 +51,22 @@ def test_convert_resamples_and_mirrors(walk: str, tmp_path: Path, dataset_clips:
     assert main(["convert", walk, "-o", str(out), "--force"]) == 0
 
 
+def test_strength_zero_writes_the_contents_own_numbers(
+    walk: str, style: str, tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
+    """At strength 0 the output file holds the content file's numbers (its angles wrap at 180 degrees where
+    it crosses them; before, 413 of its values were written a turn apart)."""
+    out = tmp_path / "unchanged.bvh"
+    assert main(["transfer", walk, "--style", style, "-o", str(out), "--strength", "0"]) == 0
+
+    def numbers(text: str) -> np.ndarray:
+        rows = text.split("Frame Time:")[1].split("\n", 1)[1].strip().split("\n")
+        return np.array([[float(value) for value in row.split()] for row in rows])
+
+    content = clip_named(dataset_clips, "dataset-2_walk_normal_005").data().decode()
+    np.testing.assert_array_equal(numbers(out.read_text()), numbers(content))
+
+
 def test_transfer_writes_bvh_and_explain(walk: str, style: str, tmp_path: Path) -> None:
     out = tmp_path / "tired.bvh"
     explain = tmp_path / "tired.json"

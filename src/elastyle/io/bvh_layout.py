@@ -1,4 +1,5 @@
-"""The layout of a BVH file beyond its motion: each joint's channels in file order, and the frame time."""
+"""The layout of a BVH file beyond its motion: each joint's channels in file order, the frame time, the up
+axis and the first frame's channel values."""
 
 from __future__ import annotations
 
@@ -18,11 +19,20 @@ class BvhLayout(NamedTuple):
     frame_time_s: the file's frame time, seconds.
     up: the file's up axis ("y" or "z", `core.up`): a clip read from a file standing along +Z is turned to
         +Y up, and turned back where it is written in this layout.
+    first_values: per joint (J,), its channels' values in the file's first frame (channel order; empty
+        without frames): a clip written in this layout starts each rotation channel on the same turn
+        (within 180 degrees of the file's first value), so its curves lie where the file's do.
+    angles_wrap: whether the file's rotation channels jump by a turn where an angle crosses 180 degrees
+        (kept within -180 to 180, as many exporters write them) rather than running on continuously: a
+        clip written in this layout does the same. Either way, a clip that is the file's own motion is
+        written with the file's numbers.
     """
 
     channels: tuple[tuple[str, ...], ...]
     frame_time_s: float
     up: str = "y"
+    first_values: tuple[tuple[float, ...], ...] = ()
+    angles_wrap: bool = False
 
     @staticmethod
     def default(skeleton: Skeleton, fps: float, moving: Sequence[int] = ()) -> BvhLayout:
@@ -57,3 +67,18 @@ def channel_columns(
             joints.append(joint)
             columns.append(rotation_columns)
     return positions, by_order
+
+
+def first_rotation_values(layout: BvhLayout, joints: Sequence[int]) -> list[list[float]] | None:
+    """Each joint's (J_o,) rotation channel values in the file's first frame, in channel order; None where
+    the layout records none (a clip from no file)."""
+    if len(layout.first_values) != len(layout.channels):
+        return None
+    return [
+        [
+            value
+            for channel, value in zip(layout.channels[j], layout.first_values[j])
+            if channel in ROTATION_CHANNELS
+        ]
+        for j in joints
+    ]

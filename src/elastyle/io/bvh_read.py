@@ -82,7 +82,28 @@ def parse_bvh(data: bytes, name: str) -> tuple[Motion, BvhLayout]:
     motion_values, frame_time_s = _parse_motion(reader, sum(len(c) for c in channels))
     fps = frame_rate(frame_time_s)
     motion = _motion_from_channels(name, skeleton, channels, motion_values, fps)
-    return motion, BvhLayout(tuple(channels), frame_time_s)
+    layout = BvhLayout(
+        tuple(channels), frame_time_s, first_values=_first_values(channels, motion_values),
+        angles_wrap=_angles_wrap(channels, motion_values),
+    )  # fmt: skip
+    return motion, layout
+
+
+def _angles_wrap(channels: list[tuple[str, ...]], values: FloatArray) -> bool:
+    """Whether a rotation channel of the file's values (T, total channels) jumps by over half a turn from
+    one frame to the next: angles kept within -180 to 180 degrees, wrapping where they cross."""
+    rotation = np.array([channel in ROTATION_CHANNELS for joint in channels for channel in joint], dtype=bool)
+    angles = values[:, rotation] if len(values) else values
+    return bool(len(angles) > 1 and np.any(np.abs(np.diff(angles, axis=0)) > 180.0))
+
+
+def _first_values(channels: list[tuple[str, ...]], values: FloatArray) -> tuple[tuple[float, ...], ...]:
+    """Each joint's channel values (J,) in the first frame of the file's values (T, total channels)."""
+    if not len(values):
+        return ()
+    ends = np.cumsum([len(c) for c in channels])
+    row = values[0].tolist()
+    return tuple(tuple(row[end - len(c) : end]) for c, end in zip(channels, ends))
 
 
 def frame_rate(frame_time_s: float) -> float:

@@ -11,7 +11,7 @@ from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.up import turned_back
 from elastyle.errors import BvhError
-from elastyle.io.bvh_layout import BvhLayout, channel_columns
+from elastyle.io.bvh_layout import BvhLayout, channel_columns, first_rotation_values
 from elastyle.io.euler import rotvec_to_euler
 from elastyle.io.files import write_text_atomic
 from elastyle.types import FloatArray
@@ -128,7 +128,8 @@ def _format_vector(vector: FloatArray) -> str:
 
 def _channel_values(motion: Motion, layout: BvhLayout, written: list[int]) -> FloatArray:
     """Frame data (T, total channels) of the joints in `written` order (the file's), each in its layout's
-    channel order; angles continuous along time."""
+    channel order; angles within -180 to 180 degrees where the layout's file wraps them, else continuous
+    along time from the turn of its first frame."""
     values = np.zeros((motion.num_frames, sum(len(c) for c in layout.channels)))
     positions, by_order = channel_columns([layout.channels[joint] for joint in written])
     for at, axis, column in positions:
@@ -136,5 +137,10 @@ def _channel_values(motion: Motion, layout: BvhLayout, written: list[int]) -> Fl
     for order, (at_joints, columns) in by_order.items():  # every joint of one Euler order at once
         joints = [written[at] for at in at_joints]
         angles_deg = rotvec_to_euler(order, motion.rotations[:, joints])  # (T, J_order, 3)
-        values[:, np.array(columns)] = np.unwrap(angles_deg, period=360.0, axis=0)
+        if not layout.angles_wrap:  # else as rotvec_to_euler gives them, within -180 to 180
+            angles_deg = np.unwrap(angles_deg, period=360.0, axis=0)
+            first = first_rotation_values(layout, joints)
+            if first is not None and len(angles_deg):  # whole turns towards the file's first frame
+                angles_deg += 360.0 * np.round((np.array(first) - angles_deg[0]) / 360.0)
+        values[:, np.array(columns)] = angles_deg
     return values
