@@ -336,3 +336,22 @@ def test_a_cache_entry_of_another_width_is_encoded_again(
     again = _cli("transfer", walk, "--style", walk, "-o", str(tmp_path / "b.bvh"), env=env)
     assert again.returncode == 0, again.stderr
     assert (tmp_path / "a.bvh").read_bytes() == (tmp_path / "b.bvh").read_bytes()
+
+
+@pytest.mark.parametrize("damage", [b"", b"PK\x03\x04", "half"])
+def test_a_damaged_cache_entry_is_encoded_again(
+    tmp_path: Path, dataset_clips: list[ClipRef], damage: bytes | str
+) -> None:
+    """An entry left empty or cut short (a full disk, a killed process) is read as a miss and replaced:
+    before, every later transfer with that style failed with an internal error."""
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005").name
+    env = {"ELASTYLE_CACHE": str(tmp_path / "cache")}
+    first = _cli("transfer", walk, "--style", walk, "-o", str(tmp_path / "a.bvh"), env=env)
+    assert first.returncode == 0, first.stderr
+    (entry,) = (tmp_path / "cache" / "libraries").iterdir()
+    whole = entry.read_bytes()
+    entry.write_bytes(whole[: len(whole) // 2] if damage == "half" else damage)  # type: ignore[arg-type]
+    again = _cli("transfer", walk, "--style", walk, "-o", str(tmp_path / "b.bvh"), env=env)
+    assert again.returncode == 0, again.stderr
+    assert (tmp_path / "a.bvh").read_bytes() == (tmp_path / "b.bvh").read_bytes()
+    assert entry.read_bytes() == whole  # the entry written again

@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import logging
 import os
+import zipfile
 from collections.abc import Callable
 from pathlib import Path
 
@@ -102,7 +103,7 @@ def load_library(
             log.debug("style library from cache %s", path)
             os.utime(path)  # recently used: kept longest when the cache is pruned
             return library
-        except (OSError, KeyError, ValueError):
+        except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile):  # empty, cut short, garbled
             log.debug("unreadable cache entry %s: encoding again", path)
     motions = [clip.read()[0] for clip in clips]
     for clip, motion in zip(clips, motions):
