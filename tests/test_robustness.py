@@ -639,3 +639,30 @@ def test_clip_labels_are_read_after_any_prefix() -> None:
     )
     assert dataset_label(ClipRef("Hero_Walk_Proud_012.bvh")) == DatasetLabel("walk", "proud", 12)
     assert dataset_label(ClipRef("take10.bvh")) is None and dataset_label(ClipRef("walk_10.bvh")) is None
+
+
+def test_eval_refuses_a_one_frame_clip_and_gives_undefined_figures_as_such(
+    tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
+    """A clip of one frame has no speeds or steps: refused in one line (before, eval printed nan figures
+    and exit 0). A figure a clip does not define (a standing wave has no cadence) is n/a, null in JSON."""
+    import json
+
+    walk, wave, style = _dataset_copies(
+        tmp_path, dataset_clips,
+        ["dataset-2_walk_normal_005", "dataset-2_wave-right-hand_normal_005", "dataset-2_walk_elderly_005"],
+    )  # fmt: skip
+    motion, layout = read_bvh(walk)
+    single = tmp_path / "one_frame.bvh"
+    write_bvh(single, motion.slice(0, 1), layout)
+    for args in ([single, "--content", walk], [walk, "--content", single]):
+        result = _cli("eval", *map(str, args), "--style", str(style))
+        assert result.returncode == 1, result.stderr
+        assert "one_frame.bvh: 1 frame(s); eval needs at least 2" in result.stderr
+        assert "Traceback" not in result.stderr
+    result = _cli("eval", str(wave), "--content", str(wave), "--style", str(style), "--json")
+    assert result.returncode == 0, result.stderr
+    figures = json.loads(result.stdout)  # strict JSON: no bare NaN
+    assert figures["cadence_content_steps_s"] is None and figures["cadence_style_steps_s"] > 0
+    text = _cli("eval", str(wave), "--content", str(wave), "--style", str(style))
+    assert "n/a" in text.stdout and "nan" not in text.stdout

@@ -5,11 +5,12 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from elastyle.cli.options import add_units_flag
-from elastyle.errors import DatasetError, ElastyleError, SkeletonMismatchError, UsageError
+from elastyle.errors import ClipTooShortError, DatasetError, ElastyleError, SkeletonMismatchError, UsageError
 
 if TYPE_CHECKING:
     from elastyle.core.motion import Motion
@@ -107,6 +108,9 @@ def run_eval(args: argparse.Namespace) -> int:
     model = load_model(args.model)
     paths = (args.output, args.content, args.style)
     clips = [in_units(read_clip(path)[0], args.units) for path in paths]
+    for path, clip in zip(paths, clips):  # speeds, cadences and skating need frames to step between
+        if clip.num_frames < 2:
+            raise ClipTooShortError(f"{path}: {clip.num_frames} frame(s); eval needs at least 2")
     # clips the model reads (other names, joint order or axes, extra joints, a dropped root) on its joints,
     # so that every export of one rig gives the same figures and a transfer's inputs and output compare
     readable = [_read_by(model, clip, path) for clip, path in zip(clips, paths)]
@@ -147,12 +151,15 @@ def _read_by(model: StyleModel, motion: Motion, path: str) -> bool:
 
 
 def _print_figures(figures: dict[str, float], as_json: bool) -> None:
+    """The figures, one per line, or as JSON; a figure a clip does not define (no steady stepping gives no
+    cadence) is n/a, or null in JSON."""
+    defined = {key: (value if math.isfinite(value) else None) for key, value in figures.items()}
     if as_json:
-        print(json.dumps(figures, indent=1))
+        print(json.dumps(defined, indent=1))
         return
     width = max(map(len, figures), default=0) + 2
-    for key, value in figures.items():
-        print(f"  {key:<{width}}{value:>10.3f}")
+    for key, value in defined.items():
+        print(f"  {key:<{width}}{'n/a' if value is None else f'{value:.3f}':>10}")
 
 
 def run_demo(args: argparse.Namespace) -> int:
