@@ -666,3 +666,24 @@ def test_eval_refuses_a_one_frame_clip_and_gives_undefined_figures_as_such(
     assert figures["cadence_content_steps_s"] is None and figures["cadence_style_steps_s"] > 0
     text = _cli("eval", str(wave), "--content", str(wave), "--style", str(style))
     assert "n/a" in text.stdout and "nan" not in text.stdout
+
+
+def test_convert_mirror_names_the_file_and_warns_of_a_side_without_its_partner(
+    tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
+    """A clip with no left/right pairs is refused naming its file; one whose left hand was renamed (no
+    partner for either hand) is mirrored with a warning naming both joints (before: silently, the hands
+    reflected in place instead of swapped)."""
+    (walk,) = _dataset_copies(tmp_path, dataset_clips, ["dataset-2_walk_normal_005"])
+    renamed = tmp_path / "renamed.bvh"
+    renamed.write_text(walk.read_text().replace("Hand_L", "Paw_L"))
+    result = _cli("convert", str(renamed), "-o", str(tmp_path / "m.bvh"), "--mirror")
+    assert result.returncode == 0, result.stderr
+    assert "renamed.bvh: joint(s) Paw_L, Hand_R name a side but have no partner" in result.stderr
+    plain = _cli("convert", str(walk), "-o", str(tmp_path / "w.bvh"), "--mirror")
+    assert plain.returncode == 0 and "warning" not in plain.stderr
+    sideless = tmp_path / "sideless.bvh"
+    sideless.write_text(walk.read_text().replace("_L", "_A").replace("_R", "_B"))
+    refused = _cli("convert", str(sideless), "-o", str(tmp_path / "s.bvh"), "--mirror")
+    assert refused.returncode == 1 and "sideless.bvh: cannot mirror" in refused.stderr
+    assert not (tmp_path / "s.bvh").exists()

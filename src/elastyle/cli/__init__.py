@@ -90,7 +90,8 @@ def _print_model_info(path: str) -> None:
 
 def _command_convert(args: argparse.Namespace) -> int:
     from elastyle.core.body import in_units
-    from elastyle.core.mirror import mirror
+    from elastyle.core.mirror import mirror, unpaired_note
+    from elastyle.errors import SkeletonMismatchError
     from elastyle.io.bvh_read import MAX_FRAME_TIME_S, MIN_FRAME_TIME_S
     from elastyle.io.clip_write import check_output_format, write_clip
     from elastyle.io.dataset import read_clip
@@ -108,7 +109,13 @@ def _command_convert(args: argparse.Namespace) -> int:
         motion = motion.resample(args.fps)
         layout = layout._replace(frame_time_s=1.0 / args.fps)
     if args.mirror:
-        motion = mirror(motion)
+        try:
+            motion = mirror(motion)
+        except SkeletonMismatchError as error:
+            raise SkeletonMismatchError(f"{args.input}: {error}") from None
+        note = unpaired_note(motion.skeleton, args.input)
+        if note is not None:
+            log.warning("%s", note)
     write_clip(args.output, motion, layout, force=args.force, inputs=(args.input,))
     log.info("wrote %s (%d frames at %.6g fps)", args.output, motion.num_frames, motion.fps)
     return 0

@@ -97,3 +97,16 @@ def mirror(motion: Motion, reflections: FloatArray | None = None) -> Motion:
     delta = mirrored_positions[:, children] - mirrored_positions[:, parents[children]]
     translations[:, children] = np.einsum("tkji,tkj->tki", parent_rotations, delta)
     return Motion(skeleton, from_matrix(local_rotations), translations, motion.fps)
+
+
+def unpaired_note(skeleton: Skeleton, name: str) -> str | None:
+    """A warning naming the joints a mirror of a clip `name` on `skeleton` reflects in place though their
+    names say a side (no partner of the other side's name), or None where every such joint has one."""
+    unpaired = skeleton.unpaired_sides()
+    if not unpaired:
+        return None
+    return (
+        f"warning: {name}: joint(s) {', '.join(unpaired)} name a side but have no partner of the other "
+        "side's name, so its mirror reflects them in place instead of swapping them: give both sides "
+        "matching names"
+    )

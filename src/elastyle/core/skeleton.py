@@ -106,6 +106,16 @@ class Skeleton:
         """(J,) index of each joint's left/right partner (itself for centre joints), from joint names."""
         return self._sides[0]
 
+    def unpaired_sides(self) -> list[str]:
+        """Names of joints whose names say a side but that have no partner of the other side's name (a
+        renamed hand): `mirror` reflects them in place instead of swapping them."""
+        partner = self.mirror_pairs()
+        return [
+            name
+            for j, name in enumerate(self.names)
+            if partner[j] == j and any(pattern.search(name) for pattern in _SIDE_PATTERNS)
+        ]
+
     def sides(self) -> IntArray:
         """(J,) +1 for a left joint, -1 for a right joint, 0 for a centre joint (one without a partner)."""
         return self._sides[1]

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from elastyle.core.mirror import mirror
+from elastyle.core.mirror import mirror, unpaired_note
 from elastyle.core.motion import Motion
 from elastyle.core.threads import one_blas_thread
 from elastyle.errors import ElastyleError, SkeletonMismatchError
@@ -120,6 +120,9 @@ def prepare_style(
         if mirror_style:
             try:
                 clips.append((name, True, mirror(motion)))
+                note = unpaired_note(motion.skeleton, name)
+                if note is not None:
+                    log.warning("%s (or --no-mirror-style)", note)
             except SkeletonMismatchError:
                 log.info(
                     "note: %s: no left/right joint pairs found, so the style is used without its mirror", name
