@@ -150,6 +150,12 @@ def test_a_damaged_glb_is_one_line(three_channel_bvh: Path, tmp_path: Path) -> N
     )
     assert result.returncode == 1 and "cut.glb" in result.stderr and "Traceback" not in result.stderr
     assert result.stderr.count("\n") == 1, result.stderr
+    assert "cut short: 300 of the" in result.stderr  # what is wrong, not an exception's class name
+    path.write_bytes(b"\x89PNG" + bytes(400))
+    result = subprocess.run(
+        [sys.executable, "-m", "elastyle.cli", "info", str(path)], capture_output=True, text=True
+    )
+    assert result.returncode == 1 and "does not start with 'glTF'" in result.stderr, result.stderr
 
 
 def test_units_does_not_apply_to_glb_clips_which_are_metres(three_channel_bvh: Path, tmp_path: Path) -> None:

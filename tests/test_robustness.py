@@ -687,3 +687,16 @@ def test_convert_mirror_names_the_file_and_warns_of_a_side_without_its_partner(
     refused = _cli("convert", str(sideless), "-o", str(tmp_path / "s.bvh"), "--mirror")
     assert refused.returncode == 1 and "sideless.bvh: cannot mirror" in refused.stderr
     assert not (tmp_path / "s.bvh").exists()
+
+
+def test_a_zip_where_one_clip_belongs_is_named_as_such(tmp_path: Path) -> None:
+    """convert takes one clip: a zip archive given for it is answered with how to name a clip inside it
+    (before: 'binary data, not a BVH text file', of an archive other commands read)."""
+    import zipfile
+
+    archive = tmp_path / "clips.zip"
+    with zipfile.ZipFile(archive, "w") as out:
+        out.writestr("clips/a.bvh", "HIERARCHY\n")
+    result = _cli("convert", str(archive), "-o", str(tmp_path / "a.bvh"))
+    assert result.returncode == 1 and "Traceback" not in result.stderr
+    assert "clips.zip: a zip archive, not a BVH file: name one clip inside it" in result.stderr

@@ -724,3 +724,20 @@ def test_ankles_with_twist_joints_and_without_toes(walk: Motion) -> None:
     for skeleton in (_with_twist_joints(walk.skeleton), _with_twist_joints(toeless)):
         ankles = [skeleton.names[j] for j in find_limbs(skeleton).ankles]
         assert ankles == ["Foot_L", "Foot_R"], ankles
+
+
+def test_a_style_whose_names_do_not_pair_is_mirrored_by_the_models_names(model, dataset_clips) -> None:  # type: ignore[no-untyped-def]
+    """A style clip the model reads joint by joint under other names, one hand renamed (Paw_L: neither
+    hand has a partner by its own names), enters the library with the same mirror as the original clip
+    (before, its hands were reflected in place, not swapped)."""
+    from elastyle.steps.library import prepare_style
+    from tests.conftest import clip_named
+
+    original = clip_named(dataset_clips, "dataset-2_walk_elderly_005").read()[0]
+    names = tuple("Paw_L" if name == "Hand_L" else name for name in original.skeleton.names)
+    renamed = Motion(
+        replace(original.skeleton, names=names), original.rotations, original.translations, original.fps
+    )
+    assert renamed.skeleton.unpaired_sides() == ["Paw_L", "Hand_R"]
+    ours, theirs = prepare_style(model, [renamed]), prepare_style(model, [original])
+    np.testing.assert_array_equal(ours.latents, theirs.latents)

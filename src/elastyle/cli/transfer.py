@@ -187,7 +187,9 @@ def run_transfer(args: argparse.Namespace) -> int:
     model = load_model(args.model)
 
     def check(clip: ClipRef, motion: Motion) -> None:
-        model.check_clip(motion, clip.name)
+        note = model.check_clip(motion, clip.name)  # how a style clip is read, as a content's is said
+        if note is not None:
+            log.warning("%s", note)
         if abs(motion.fps - model.fps) > 1e-6:
             log.info(
                 "note: %s is %.6g fps, resampled to the model's %.6g fps", clip.name, motion.fps, model.fps

@@ -66,6 +66,10 @@ def parse_bvh(data: bytes, name: str) -> tuple[Motion, BvhLayout]:
     """Parse BVH bytes; `name` is used in error messages."""
     if not data.strip():
         raise BvhError(name, "empty file")
+    if data.startswith(b"PK\x03\x04"):
+        raise BvhError(
+            name, "a zip archive, not a BVH file: name one clip inside it (ARCHIVE.zip/folder/clip.bvh)"
+        )
     if b"\x00" in data[:4096]:
         raise BvhError(name, "binary data, not a BVH text file")
     try:

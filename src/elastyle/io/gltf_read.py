@@ -8,6 +8,7 @@ times (which must be evenly spaced: the frame rate), animate them. Lengths stay 
 
 from __future__ import annotations
 
+import struct
 from typing import Any
 
 import numpy as np
@@ -23,14 +24,34 @@ from elastyle.types import FloatArray
 _WIDTH = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}
 
 
+GLB_HEADER_BYTES = 12  # magic 'glTF', version, total length (little-endian 32-bit words)
+
+
+def _header_problem(data: bytes) -> str | None:
+    """What is wrong with a binary glTF file's 12-byte header (its magic, version and length), if anything."""
+    if data[:4] != b"glTF":
+        return "not a binary glTF file (it does not start with 'glTF')"
+    if len(data) < GLB_HEADER_BYTES:
+        return f"cut short: {len(data)} bytes, shorter than a binary glTF header"
+    version, length = struct.unpack_from("<II", data, 4)
+    if version != 2:
+        return f"binary glTF version {version}; only version 2 is read"
+    if len(data) < length:
+        return f"cut short: {len(data)} of the {length} bytes its header gives"
+    return None
+
+
 def parse_glb(data: bytes, name: str) -> Motion:
     """A `.glb` file's bytes as a clip; `BvhError` naming the file when it is not a usable animation."""
     import pygltflib as gl
 
+    problem = _header_problem(data)
+    if problem is not None:
+        raise BvhError(name, problem)
     try:
         document = gl.GLTF2.load_from_bytes(data)
     except Exception as error:  # pygltflib raises bare exceptions of many kinds on damaged files
-        raise BvhError(name, f"not a readable binary glTF file ({type(error).__name__})") from None
+        raise BvhError(name, f"a damaged binary glTF file: {str(error) or type(error).__name__}") from None
     if not document.skins or not document.animations:
         raise BvhError(name, "a glTF file needs a skin (the skeleton) and an animation")
     joints = list(document.skins[0].joints)

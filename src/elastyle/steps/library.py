@@ -9,12 +9,12 @@ from __future__ import annotations
 import logging
 import os
 from collections.abc import Callable, Hashable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
-from elastyle.core.mirror import mirror, unpaired_note
+from elastyle.core.mirror import mirror
 from elastyle.core.motion import Motion
 from elastyle.core.threads import one_blas_thread
 from elastyle.errors import ElastyleError, SkeletonMismatchError
@@ -119,10 +119,7 @@ def prepare_style(
         clips.append((name, False, motion))
         if mirror_style:
             try:
-                clips.append((name, True, mirror(motion)))
-                note = unpaired_note(motion.skeleton, name)
-                if note is not None:
-                    log.warning("%s (or --no-mirror-style)", note)
+                clips.append((name, True, _mirrored_by_model_names(model, motion)))
             except SkeletonMismatchError:
                 log.info(
                     "note: %s: no left/right joint pairs found, so the style is used without its mirror", name
@@ -134,6 +131,17 @@ def prepare_style(
     latents = [model.encode_motion(m)[0] for _, _, m in clips]
     actions = [action_channels(m) for _, _, m in clips]
     return StyleLibrary.of_latents([c[0] for c in clips], [c[1] for c in clips], latents, actions, backwards)
+
+
+def _mirrored_by_model_names(model: StyleModel, motion: Motion) -> Motion:
+    """The mirror of a clip on the model's joints (`StyleModel.on_model_hierarchy`), its left and right
+    joints paired by the model's joint names: a clip the model reads joint by joint under other names
+    mirrors as the model's own would, even where its own names do not pair (a hand renamed on one side)."""
+    if motion.skeleton.num_joints != model.skeleton.num_joints:
+        return mirror(motion)
+    named = replace(motion.skeleton, names=model.skeleton.names)
+    mirrored = mirror(Motion(named, motion.rotations, motion.translations, motion.fps))
+    return Motion(motion.skeleton, mirrored.rotations, mirrored.translations, motion.fps)
 
 
 def played_backwards(motion: Motion) -> Motion:
