@@ -12,6 +12,7 @@ from functools import partial
 from typing import NamedTuple
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 from elastyle.core.resample import interpolate_rows
 from elastyle.core.smoothing import smooth
@@ -241,23 +242,40 @@ def style_track(
             for sequence in (patches, shifted)
         )
         measures[part] = arm._asdict()
-        keep[part] = np.max(
-            [
-                keep_share(on_grid(arm.hand_offset, shifted_arm.hand_offset), config.arm_offset_above, ease),
-                keep_share(
-                    on_grid(arm.rhythm_difference, shifted_arm.rhythm_difference),
-                    config.arm_rhythm_above,
-                    ease,
-                ),
-                end_share(grid, ARM_ENDS_PATCHES * patch_frames),
-            ],
-            axis=0,
+        offset = on_grid(arm.hand_offset, shifted_arm.hand_offset)
+        rhythm = on_grid(arm.rhythm_difference, shifted_arm.rhythm_difference)
+        # where the windows' hand goes back and forth more than the content's (a raise's held top against a
+        # wave), a short mismatch is held over the easing rather than flattened by it: the arm keeps the
+        # content's action fully there instead of taking part of the windows' sway
+        sways_more = on_grid(
+            *(
+                _sways_more(content_rhythm, library_rhythm, sequence, patch_frames)
+                for sequence in (patches, shifted)
+            )
         )
+        shares = []
+        for values, above in ((offset, config.arm_offset_above), (rhythm, config.arm_rhythm_above)):
+            plain, held = keep_share(values, above, ease), keep_share(values, above, ease, held=True)
+            shares.append(plain + sways_more * (held - plain))
+        keep[part] = np.max([*shares, end_share(grid, ARM_ENDS_PATCHES * patch_frames)], axis=0)
     # colour with the style's statistics
     coloured = library.stats.colour(white, config.whiten_floor)
     return StyleTrack(
         coloured, log_rate, patches, patch_frames, fallback, mismatch, measures, keep, other_action
     )
+
+
+def _sways_more(
+    content_rhythm: FloatArray, library_rhythm: FloatArray, patches: list[Patch], patch_frames: int
+) -> FloatArray:
+    """(P,) 1.0 where a patch's style window goes back and forth more than its content span (the mean of
+    each's steady rhythm, (T,) and (N,)), else 0.0."""
+    if not patches:
+        return np.zeros(0)
+    spans, windows = patch_windows(
+        content_rhythm[:, None], library_rhythm[:, None], patches, patch_frames, np.arange(1)
+    )
+    return (windows.mean(axis=(1, 2)) > spans.mean(axis=(1, 2))).astype(np.float64)
 
 
 def _steady_hand_rhythm(hand: FloatArray, clip_starts: IntArray, fps: float) -> FloatArray:
@@ -333,10 +351,12 @@ def part_mismatch(
     return difference / (size + MISMATCH_FLOOR)
 
 
-def keep_share(mismatch: FloatArray, above: float, ease_steps: float) -> FloatArray:
+def keep_share(mismatch: FloatArray, above: float, ease_steps: float, held: bool = False) -> FloatArray:
     """(G,) 0 where a part's mismatch (G,) is at most `above`, rising smoothly to 1 at `KEEP_RAMP` over it,
-    eased in and out in time (Gaussian, sigma `ease_steps` grid steps)."""
-    return _eased((mismatch - above) / KEEP_RAMP, ease_steps)
+    eased in and out in time (Gaussian, sigma `ease_steps` grid steps); held: each share first held at its
+    running maximum over `ease_steps` either side, so the easing widens a short peak (an arm's mismatch
+    that lasts less than a patch, a raise's top against a wave's) instead of flattening it."""
+    return _eased((mismatch - above) / KEEP_RAMP, ease_steps, held)
 
 
 def end_share(grid: FloatArray, span: float) -> FloatArray:
@@ -355,11 +375,16 @@ def fallback_share(similarity: FloatArray, below: float, ease_steps: float) -> F
     return _eased((below - similarity) / FALLBACK_RAMP, ease_steps)
 
 
-def _eased(ramp: FloatArray, ease_steps: float) -> FloatArray:
+def _eased(ramp: FloatArray, ease_steps: float, held: bool = False) -> FloatArray:
     """(G,) a ramp (G,) clipped to [0, 1] through a smoothstep, then eased in and out in time (Gaussian,
-    sigma `ease_steps` grid steps)."""
+    sigma `ease_steps` grid steps), held at its running maximum over `ease_steps` either side first if
+    asked."""
     x = np.clip(ramp, 0.0, 1.0)
-    return np.clip(smooth(x * x * (3 - 2 * x), ease_steps), 0.0, 1.0)
+    x = x * x * (3 - 2 * x)
+    if held and len(x):
+        reach = int(round(ease_steps))
+        x = sliding_window_view(np.pad(x, reach, mode="edge"), 2 * reach + 1).max(axis=-1)
+    return np.clip(smooth(x, ease_steps), 0.0, 1.0)
 
 
 class _Cover(NamedTuple):
