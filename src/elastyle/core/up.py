@@ -18,6 +18,7 @@ import numpy as np
 from elastyle.core.motion import Motion
 from elastyle.core.parts import subtree, trunk
 from elastyle.core.rotations import from_matrix, to_matrix
+from elastyle.core.stats import median
 from elastyle.types import FloatArray
 
 UP_AXES = ("y", "z")
@@ -50,7 +51,7 @@ def detected_axis(motion: Motion) -> str | None:
     step = max(1, motion.num_frames // DETECTION_FRAMES)
     sampled = Motion(skeleton, motion.rotations[::step], motion.translations[::step], motion.fps)
     positions = sampled.positions(body)  # (T', J, 3)
-    extent = np.median(np.ptp(positions[:, body], axis=1), axis=0)  # (3,) the body's size along x, y, z
+    extent = median(np.ptp(positions[:, body], axis=1), axis=0)  # (3,) the body's size along x, y, z
     relative = positions[:, upper] - positions[:, pelvis : pelvis + 1]
     above = np.mean(relative, axis=(0, 1))  # (3,) where the trunk lies from the pelvis
     travel = np.ptp(positions[:, pelvis], axis=0)  # (3,)

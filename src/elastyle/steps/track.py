@@ -16,6 +16,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from elastyle.core.resample import interpolate_rows
 from elastyle.core.smoothing import smooth
+from elastyle.core.stats import median
 from elastyle.errors import ClipTooShortError
 from elastyle.steps.action import TURNING_COLUMN, sustained_turning
 from elastyle.steps.arms import arm_mismatch, back_and_forth, steady_rhythm
@@ -327,10 +328,7 @@ def stepping_tempo(
     ]
     if len(stretches) < MIN_TEMPO_PATCHES:
         return None
-    # the median of a few values, by hand: numpy's imports numpy.ma on its first call (see `joint_set`)
-    logs, middle = sorted(np.log(stretches).tolist()), len(stretches) // 2
-    median = logs[middle] if len(logs) % 2 else (logs[middle - 1] + logs[middle]) / 2
-    return float(np.exp(median))
+    return float(np.exp(median(np.log(stretches))))
 
 
 def part_mismatch(
