@@ -11,7 +11,10 @@ import logging
 import os
 import sys
 from collections.abc import Sequence
+from contextlib import nullcontext
 from typing import NoReturn
+
+from threadpoolctl import threadpool_limits
 
 from elastyle.cli.options import add_units_flag
 from elastyle.errors import ElastyleError, UsageError
@@ -203,8 +206,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     from elastyle.io.dataset import set_read_up
 
     set_read_up(args.up)
+    # one BLAS thread, as every transfer runs (`core.threads`): the same numbers whatever the machine, and on
+    # the small products here the fast way (a pooled library's 64 x 64 eigendecomposition took 28 to 56 ms
+    # on two threads of a loaded 2-core machine, 0.5 on one); training sets its own threads (--threads)
+    limit = nullcontext() if args.command == "train" else threadpool_limits(limits=1, user_api="blas")
     try:
-        return int(args.run(args) or 0)
+        with limit:
+            return int(args.run(args) or 0)
     except ElastyleError as error:
         if args.verbose:
             raise
