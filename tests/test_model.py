@@ -198,3 +198,38 @@ def test_perturbation_moves_whole_joints_within_their_recorded_ranges() -> None:
     assert np.all(moved.all(axis=2) == moved.any(axis=2))  # a joint's channels move together
     assert 10 < moved.any(axis=(1, 2)).sum() < 54  # about half the windows
     assert perturbed.min() >= -1.2 and perturbed.max() <= 1.2  # never past the recorded range
+
+
+@pytest.mark.slow
+def test_ctrl_c_ends_training_with_a_checkpoint_to_resume(tmp_path: Path, data_path: Path) -> None:
+    """Ctrl-C during training: the step under way finishes, a checkpoint is written and named with the
+    command that resumes it, and no model file (before: the steps since the last 500th were lost, unsaid)."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    data = (
+        f"{data_path}/bandai-namco-2/data/dataset-2_walk_normal_00[1-4].bvh"
+        if str(data_path).endswith(".zip")
+        else str(data_path)
+    )
+    output = tmp_path / "m.npz"
+    command = [sys.executable, "-m", "elastyle.cli", "train", data, "-o", str(output), "--steps", "100000",
+               "--threads", "1"]  # fmt: skip
+    process = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
+    checkpoint = Path(str(output) + ".ckpt")
+    assert process.stderr is not None
+    before = []
+    for line in process.stderr:  # the clips are read: training starts
+        before.append(line)
+        if "held out" in line:
+            break
+    time.sleep(5)  # into the steps
+    assert process.poll() is None, "".join(before)
+    process.send_signal(signal.SIGINT)
+    _, stderr = process.communicate(timeout=120)
+    assert process.returncode == 130, stderr
+    assert "interrupted at step" in stderr and f"--resume {checkpoint}" in stderr, stderr
+    assert checkpoint.exists() and not output.exists()
+    assert "Traceback" not in stderr

@@ -12,6 +12,8 @@ import json
 import logging
 import math
 import os
+import signal
+import threading
 import time
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -217,49 +219,69 @@ def train(
     started = time.perf_counter()
     val_loss = float("nan")
     train_loss = float("nan")
-    while step < budget_steps and elapsed_before + time.perf_counter() - started < budget_s:
-        if config.lr_schedule == "cosine":
-            fraction = (
-                step / budget_steps
-                if config.steps
-                else (elapsed_before + time.perf_counter() - started) / budget_s
+    stop = _StopOnInterrupt()  # Ctrl-C ends training after the step under way, with a checkpoint
+    try:
+        while (
+            step < budget_steps
+            and elapsed_before + time.perf_counter() - started < budget_s
+            and not stop.asked
+        ):
+            if config.lr_schedule == "cosine":
+                fraction = (
+                    step / budget_steps
+                    if config.steps
+                    else (elapsed_before + time.perf_counter() - started) / budget_s
+                )
+                rate = config.learning_rate * (
+                    0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * min(fraction, 1.0)))
+                )
+                for group in optimizer.param_groups:
+                    group["lr"] = rate
+            speed = min(draw_speed(rng, config.speed_augment, config.speed_range), longest / window)
+            windows = sample_windows(
+                train_norm, window, config.batch_size, rng, speed, config.reverse_augment
             )
-            rate = config.learning_rate * (0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * min(fraction, 1.0))))
-            for group in optimizer.param_groups:
-                group["lr"] = rate
-        speed = min(draw_speed(rng, config.speed_augment, config.speed_range), longest / window)
-        windows = sample_windows(train_norm, window, config.batch_size, rng, speed, config.reverse_augment)
-        if config.perturb_augment > 0:
-            windows = perturb_windows(
-                windows, config.perturb_augment, config.perturb_scale, groups, low, high, rng
-            )
-        batch = torch.from_numpy(windows)
-        reconstruction = network(batch)
-        loss = torch.mean((reconstruction - batch) ** 2)
-        if config.position_loss > 0:
-            predicted = pose_positions(reconstruction) / config.position_scale
-            target = pose_positions(batch) / config.position_scale
-            position_error = torch.mean((predicted - target) ** 2)
-            velocity_error = torch.mean((torch.diff(predicted, dim=1) - torch.diff(target, dim=1)) ** 2) * fps
-            loss = loss + config.position_loss * (position_error + velocity_error)
-        optimizer.zero_grad()
-        loss.backward()
-        optimizer.step()
-        step += 1
-        train_loss = float(loss.detach())
-        if step % 100 == 0 and val_batch is not None:
-            with torch.no_grad():
-                val_loss = float(torch.mean((network(val_batch) - val_batch) ** 2))
-        if bar is not None:
-            bar.update(1)
-            bar.set_postfix(loss=f"{train_loss:.4f}", val=f"{val_loss:.4f}")
-        if step % config.checkpoint_every == 0:
-            spent = elapsed_before + time.perf_counter() - started
-            _save_checkpoint(checkpoint_path, network, optimizer, step, spent, config)
+            if config.perturb_augment > 0:
+                windows = perturb_windows(
+                    windows, config.perturb_augment, config.perturb_scale, groups, low, high, rng
+                )
+            batch = torch.from_numpy(windows)
+            reconstruction = network(batch)
+            loss = torch.mean((reconstruction - batch) ** 2)
+            if config.position_loss > 0:
+                predicted = pose_positions(reconstruction) / config.position_scale
+                target = pose_positions(batch) / config.position_scale
+                position_error = torch.mean((predicted - target) ** 2)
+                velocity_error = (
+                    torch.mean((torch.diff(predicted, dim=1) - torch.diff(target, dim=1)) ** 2) * fps
+                )
+                loss = loss + config.position_loss * (position_error + velocity_error)
+            optimizer.zero_grad()
+            loss.backward()
+            optimizer.step()
+            step += 1
+            train_loss = float(loss.detach())
+            if step % 100 == 0 and val_batch is not None:
+                with torch.no_grad():
+                    val_loss = float(torch.mean((network(val_batch) - val_batch) ** 2))
+            if bar is not None:
+                bar.update(1)
+                bar.set_postfix(loss=f"{train_loss:.4f}", val=f"{val_loss:.4f}")
+            if step % config.checkpoint_every == 0:
+                spent = elapsed_before + time.perf_counter() - started
+                _save_checkpoint(checkpoint_path, network, optimizer, step, spent, config)
+    finally:
+        stop.release()
     if bar is not None:
         bar.close()
     elapsed = elapsed_before + time.perf_counter() - started
     _save_checkpoint(checkpoint_path, network, optimizer, step, elapsed, config)
+    if stop.asked:
+        log.warning(
+            "interrupted at step %d: the training so far is in %s; continue it with `elastyle train ... -o %s "
+            "--resume %s` (the same clips)", step, checkpoint_path, output, checkpoint_path
+        )  # fmt: skip
+        raise KeyboardInterrupt
     if val_batch is not None:
         with torch.no_grad():
             val_loss = float(torch.mean((network(val_batch) - val_batch) ** 2))
@@ -299,6 +321,27 @@ def train(
     if step == resumed_at:
         log.warning("warning: %s: no training step was taken (the budget was spent before this run)", output)
     return model
+
+
+class _StopOnInterrupt:
+    """Ctrl-C (SIGINT) asks training to stop after the step under way (`asked`), so its checkpoint holds
+    whole steps; a second Ctrl-C interrupts at once. In the main thread only (elsewhere: nothing changes);
+    `release` restores the handler it replaced."""
+
+    def __init__(self) -> None:
+        self.asked = False
+        self._previous: Any = None
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._ask)
+
+    def _ask(self, signum: int, frame: Any) -> None:
+        self.asked = True
+        signal.signal(signal.SIGINT, signal.default_int_handler)  # a second Ctrl-C stops at once
+
+    def release(self) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+            self._previous = None
 
 
 def _save_checkpoint(
