@@ -26,20 +26,21 @@ Each step is one call into the module that owns it; docs/method.md describes eac
 from __future__ import annotations
 
 import logging
+import os
 from collections.abc import Mapping, Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from elastyle.core.body import centimetres_per_unit, find_limbs, guessed_unit_note, no_legs_note
-from elastyle.core.motion import Motion
+from elastyle.core.motion import Motion, check_finite_clip
 from elastyle.core.parts import body_parts, joint_set, parse_parts, part_joints, sides_guessed
 from elastyle.core.resample import interpolate_rows
 from elastyle.core.threads import one_blas_thread
 from elastyle.errors import ClipTooShortError, ConfigError, ResultError
 from elastyle.model.depth import depth_warning, reconstruction_error_cm
 from elastyle.model.features import RootPath
-from elastyle.model.file import StyleModel, load_model
+from elastyle.model.file import StyleModel, as_model
 from elastyle.steps.action import (
     action_channels,
     part_channels,
@@ -84,7 +85,7 @@ def transfer(
     style: StyleInput,
     config: TransferConfig | None = None,
     *,
-    model: StyleModel | None = None,
+    model: StyleModel | str | os.PathLike[str] | None = None,
     second_style: StyleInput | None = None,
     second_weight: float | str | Schedule = 0.0,
     style_names: Sequence[str] | None = None,
@@ -101,10 +102,19 @@ def transfer(
         a transition from `style` to `second_style`, constant for a blend).
     part_styles: body part names (`core.parts`: legs, spine, left-arm, right-arm, arms) and the style
         whose manner those parts take instead (on the output's one clock, which `style` sets).
+    model: a `StyleModel` (`load_model`) or a model file's path; None: the shipped model.
+    style_names, second_style_names: one name per style clip, for notes and the explain record.
+    content_name: the content's name in notes and errors.
+    Returns a `TransferResult`: the output clip on the content's skeleton at its frame rate (its length
+    follows the style's timing unless `timing="content"`), and the explain record (a dict: the matched
+    patches, notes, the output's frame count). Raises `ElastyleError` subclasses for unusable input
+    (`SkeletonMismatchError`, `ClipTooShortError`, `ConfigError`, `BvhError` for NaN values), `TypeError`
+    where something else than a clip is given.
     """
     config = TransferConfig.of(config, **options)
     _check_clip_type(content, "content")
-    model = model or load_model()
+    check_finite_clip(content, content_name)
+    model = as_model(model)
     renamed = model.check_clip(content, content_name)
     original = content  # the output is on its skeleton
     content = model.on_model_hierarchy(content)  # its joints the model has, and a dropped static root added

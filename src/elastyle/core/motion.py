@@ -10,6 +10,7 @@ import numpy as np
 from elastyle.core.resample import interpolate_rows
 from elastyle.core.rotations import slerp_resample
 from elastyle.core.skeleton import Skeleton, forward_kinematics
+from elastyle.errors import BvhError
 from elastyle.types import FloatArray, IntArray
 
 
@@ -30,6 +31,9 @@ class Motion:
     fps: float
 
     def __post_init__(self) -> None:
+        for name in ("rotations", "translations"):  # lists of numbers as arrays
+            if not isinstance(getattr(self, name), np.ndarray):
+                object.__setattr__(self, name, np.asarray(getattr(self, name), dtype=np.float64))
         num_joints = self.skeleton.num_joints
         if self.rotations.ndim != 3 or self.rotations.shape[1:] != (num_joints, 3):
             raise ValueError(f"rotations must be (T, {num_joints}, 3), got {self.rotations.shape}")
@@ -42,15 +46,24 @@ class Motion:
 
     @property
     def num_frames(self) -> int:
+        """T, the number of frames."""
         return int(self.rotations.shape[0])
 
     @property
     def duration_s(self) -> float:
+        """The clip's length in seconds: its frame count over its frame rate."""
         return self.num_frames / self.fps
 
     def is_finite(self) -> bool:
         """Whether every rotation and translation is a finite number (nothing NaN or infinite)."""
         return bool(np.all(np.isfinite(self.rotations)) and np.all(np.isfinite(self.translations)))
+
+    def first_non_finite_frame(self) -> int | None:
+        """The first frame holding a NaN or infinite rotation or translation, None where every one is finite."""
+        bad = ~(
+            np.isfinite(self.rotations).all(axis=(1, 2)) & np.isfinite(self.translations).all(axis=(1, 2))
+        )
+        return int(np.argmax(bad)) if bad.any() else None
 
     def scaled(self, factor: float) -> Motion:
         """The clip `factor` times as large: its skeleton and every translation (rotations unchanged)."""
@@ -106,3 +119,11 @@ class Motion:
         num_frames = max(1, int(round((self.num_frames - 1) * fps / self.fps)) + 1)
         frame_times = np.arange(num_frames, dtype=np.float64) * (self.fps / fps)  # (N,) source frame indices
         return self.sample(frame_times, fps)
+
+
+def check_finite_clip(motion: Motion, name: str) -> None:
+    """A `BvhError` naming the clip and its first frame holding NaN or infinite values, if any (a clip built
+    in code: a file's reader refuses such values itself)."""
+    frame = motion.first_non_finite_frame()
+    if frame is not None:
+        raise BvhError(name, f"NaN or infinite values, first at frame {frame}")

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import io
 import os
+from pathlib import Path
 
 import numpy as np
 
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.up import turned_back
-from elastyle.errors import BvhError
+from elastyle.errors import BvhError, UsageError
 from elastyle.io.bvh_layout import BvhLayout, channel_columns, first_rotation_values
 from elastyle.io.euler import rotvec_to_euler
 from elastyle.io.files import write_text_atomic
@@ -84,9 +85,20 @@ def write_bvh(
     inputs: tuple[str, ...] = (),
 ) -> None:
     """Write a clip as BVH, atomically; refuses to replace an existing file unless `force`, to write
-    non-finite values, or to replace any of `inputs`."""
+    non-finite values, or to replace any of `inputs`. (`elastyle.write_clip` writes .bvh or .glb by the
+    name's extension.)"""
+    check_clip_argument(motion)
+    if Path(path).suffix.lower() in (".glb", ".gltf"):
+        raise UsageError(f"{path}: write_bvh writes BVH text; for glTF use elastyle.write_clip(path, motion)")
     refuse_non_finite(path, motion)
     write_text_atomic(path, bvh_text(motion, layout), force=force, inputs=inputs)
+
+
+def check_clip_argument(motion: object) -> None:
+    """A `TypeError` saying what to pass where a writer is given something else than a `Motion`."""
+    if not isinstance(motion, Motion):
+        hint = " (a transfer's result: pass result.motion)" if hasattr(motion, "motion") else ""
+        raise TypeError(f"the clip to write must be a Motion, got {type(motion).__name__}{hint}")
 
 
 def refuse_non_finite(path: str | os.PathLike[str], motion: Motion) -> None:

@@ -8,7 +8,7 @@ from pathlib import Path
 from elastyle.core.motion import Motion
 from elastyle.errors import UsageError
 from elastyle.io.bvh_layout import BvhLayout
-from elastyle.io.bvh_write import bvh_text, refuse_non_finite
+from elastyle.io.bvh_write import bvh_text, check_clip_argument, refuse_non_finite
 from elastyle.io.files import write_bytes_atomic
 
 OUTPUT_SUFFIXES = (".bvh", ".glb")
@@ -26,6 +26,7 @@ def check_output_format(path: str | os.PathLike[str]) -> None:
 def clip_bytes(path: str | os.PathLike[str], motion: Motion, layout: BvhLayout | None = None) -> bytes:
     """The file `path` would hold for `motion`: BVH (in `layout`) or binary glTF, by the name's extension.
     Refuses non-finite values, naming `path`."""
+    check_clip_argument(motion)
     check_output_format(path)
     refuse_non_finite(path, motion)
     if Path(path).suffix.lower() == ".glb":

@@ -181,7 +181,16 @@ def find_clips(specs: Iterable[str | os.PathLike[str]], pattern: str | None = No
 
 
 def read_clip(spec: str | os.PathLike[str], up: str | None = None) -> tuple[Motion, BvhLayout]:
-    """Read one clip named by a file path or a path inside a zip archive (up: `ClipRef.read`)."""
+    """Read one clip named by a file path or a path inside a zip archive (up: `ClipRef.read`): the clip, its
+    rotations (T, J, 3) exp maps in radians and translations (T, J, 3) in the file's length unit, and the
+    layout that writes it back as its file has it."""
+    if isinstance(spec, bytes) and b"\n" not in spec:
+        spec = os.fsdecode(spec)  # a path given as bytes
+    if not isinstance(spec, (str, os.PathLike)):
+        raise TypeError(
+            f"read_bvh takes a file's path, got {type(spec).__name__} {spec!r:.40}: a BVH text in memory is "
+            "read by elastyle.io.bvh_read.parse_bvh(data, name)"
+        )
     archive = _split_archive(str(spec))
     if archive is not None and archive[1]:
         return ClipRef(str(spec), archive[0], archive[1]).read(up)

@@ -238,6 +238,18 @@ def default_model_path() -> Path:
     return Path(__file__).resolve().parent.parent / "pretrained" / PRETRAINED_NAME
 
 
+def as_model(model: StyleModel | str | os.PathLike[str] | None) -> StyleModel:
+    """A model as given, or loaded from a model file's path (the shipped model for None); a `TypeError`
+    naming anything else."""
+    if isinstance(model, StyleModel):
+        return model
+    if model is None or isinstance(model, (str, os.PathLike)):
+        return load_model(model)
+    raise TypeError(
+        f"model must be a StyleModel or a model file's path, got {type(model).__name__} {model!r:.60}"
+    )
+
+
 def load_model(path: str | os.PathLike[str] | None = None) -> StyleModel:
     """Load a model file (the shipped pretrained model when `path` is None); `ModelError` if unusable."""
     path = default_model_path() if path is None else Path(path)

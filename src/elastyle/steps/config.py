@@ -8,6 +8,7 @@ once, in `__post_init__`, whether the values come from Python or from the comman
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
@@ -179,17 +180,33 @@ class TransferConfig:
     )  # fmt: skip
 
     def __post_init__(self) -> None:
+        if isinstance(self.keep_part, (list, tuple)):  # parts as a list in Python, as comma-separated text
+            object.__setattr__(self, "keep_part", ",".join(map(str, self.keep_part)))
         for spec in fields(self):
-            _check(spec.name, getattr(self, spec.name), spec.metadata)
+            value = getattr(self, spec.name)
+            if spec.type == "bool" and not isinstance(value, (bool, np.bool_)):
+                raise ConfigError(f"--{spec.name.replace('_', '-')}: must be True or False, got {value!r}")
+            if spec.type == "str" and not isinstance(value, str):
+                raise ConfigError(f"--{spec.name.replace('_', '-')}: must be text, got {value!r}")
+            _check(spec.name, value, spec.metadata)
         parse_parts(self.keep_part, "--keep-part")
         if isinstance(self.strength, str):
             Schedule.parse(self.strength, "strength")
-        else:
+        elif isinstance(self.strength, numbers.Real) and not isinstance(self.strength, (bool, np.bool_)):
             Schedule.parse(str(float(self.strength)), "strength")
+        else:
+            raise ConfigError(
+                f"--strength: a number from 0 to 1 or a schedule 'SECONDS:VALUE,...', got {self.strength!r}"
+            )
 
     @staticmethod
     def of(config: TransferConfig | None = None, **options: Any) -> TransferConfig:
         """`config` (or the defaults) with `options` replaced; a `ConfigError` names an unknown option."""
+        if config is not None and not isinstance(config, TransferConfig):
+            raise ConfigError(
+                f"config must be a TransferConfig, got {type(config).__name__} {config!r:.60}: give options as "
+                "keywords (transfer(content, style, strength=0.5)) or TransferConfig(strength=0.5)"
+            )
         config = config or TransferConfig()
         known = {spec.name for spec in fields(TransferConfig)}
         unknown = sorted(set(options) - known)
@@ -233,7 +250,7 @@ def _check(name: str, value: Any, metadata: Any) -> None:
     low, high = metadata.get("low"), metadata.get("high")
     if low is None and high is None:
         return
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real) or not math.isfinite(value):
         raise ConfigError(f"{flag}: must be a finite number, got {value!r}")
     below = value <= low if metadata["low_open"] else value < low
     above = value >= high if metadata["high_open"] else value > high

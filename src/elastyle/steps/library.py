@@ -15,10 +15,10 @@ from typing import Any
 import numpy as np
 
 from elastyle.core.mirror import mirror
-from elastyle.core.motion import Motion
+from elastyle.core.motion import Motion, check_finite_clip
 from elastyle.core.threads import one_blas_thread
-from elastyle.errors import ElastyleError, SkeletonMismatchError
-from elastyle.model.file import StyleModel
+from elastyle.errors import ConfigError, ElastyleError, SkeletonMismatchError
+from elastyle.model.file import StyleModel, as_model
 from elastyle.steps.action import action_channels
 from elastyle.steps.search import StyleWindows
 from elastyle.steps.whiten import LatentStats
@@ -103,14 +103,22 @@ def match_frames(white_latents: FloatArray, actions: FloatArray, action_weight: 
 
 @one_blas_thread
 def prepare_style(
-    model: StyleModel,
-    motions: Sequence[Motion],
+    model: StyleModel | str | os.PathLike[str] | None,
+    motions: Motion | Sequence[Motion],
     names: Sequence[str] | None = None,
     mirror_style: bool = True,
     reverse_style: bool = False,
 ) -> StyleLibrary:
     """Encode a style library: every clip, plus its mirror when the skeleton allows, and with
-    `reverse_style` each of those played backwards."""
+    `reverse_style` each of those played backwards. model: a `StyleModel` or a model file's path (None: the
+    shipped model); motions: one clip or several; names: one per clip (style0, style1, ... by default)."""
+    model = as_model(model)
+    motions = [motions] if isinstance(motions, Motion) else list(motions)
+    _check_style_clips(motions, names)
+    if names is not None and len(names) != len(motions):
+        raise ConfigError(
+            f"{len(names)} style name(s) for {len(motions)} style clip(s): give one name per clip"
+        )
     names = list(names) if names is not None else [f"style{i}" for i in range(len(motions))]
     clips: list[tuple[str, bool, Motion]] = []
     for name, motion in zip(names, motions):
@@ -166,7 +174,19 @@ def as_library(
             f"the style must be a Motion, a list of them or a StyleLibrary, got the path {style!r:.80}: read it "
             "first with elastyle.read_bvh(path), which returns (motion, layout)"
         )
-    motions = [style] if isinstance(style, Motion) else list(style)
+    if not isinstance(style, (Motion, list, tuple)):
+        raise TypeError(
+            f"the style must be a Motion, a list of them or a StyleLibrary, got {type(style).__name__} "
+            f"{style!r:.60}"
+        )
+    return prepare_style(
+        model, [style] if isinstance(style, Motion) else list(style), names, mirror_style, reverse_style
+    )
+
+
+def _check_style_clips(motions: Sequence[Motion], names: Sequence[str] | None = None) -> None:
+    """An `ElastyleError` without clips or for a clip holding NaN, a `TypeError` naming what was given where a
+    clip belongs."""
     if not motions:
         raise ElastyleError("no style clips given")
     for motion in motions:
@@ -175,4 +195,7 @@ def as_library(
                 f"style clips must be Motions, got {type(motion).__name__} (elastyle.read_bvh returns (motion, "
                 "layout): pass its motion)"
             )
-    return prepare_style(model, motions, names, mirror_style, reverse_style)
+    for index, motion in enumerate(motions):
+        check_finite_clip(
+            motion, names[index] if names is not None and index < len(names) else f"style{index}"
+        )

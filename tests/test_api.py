@@ -1,0 +1,88 @@
+"""The Python API as an integrating developer meets it: wrong types and counts get clear errors of elastyle's
+own types or TypeErrors that say what to pass, never a numpy or attribute error from deep inside."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import elastyle
+from elastyle import (
+    BvhError,
+    ConfigError,
+    ElastyleError,
+    Motion,
+    TransferConfig,
+    UsageError,
+    prepare_style,
+    read_bvh,
+    transfer,
+    write_bvh,
+    write_clip,
+)
+
+
+def test_too_few_or_too_many_style_names_are_refused(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
+    """Before, names and clips were paired by zip: a second clip with no name was silently dropped."""
+    with pytest.raises(ConfigError, match="1 style name\\(s\\) for 2 style clip\\(s\\)"):
+        transfer(content, [style_clip, content], model=model, style_names=["a"])
+    with pytest.raises(ConfigError, match="3 style name"):
+        prepare_style(model, [style_clip, content], names=["a", "b", "c"])
+    library = prepare_style(model, style_clip, names=["one"])  # one clip alone is a library of one
+    assert library.names == ["one", "one"]  # the clip and its mirror
+
+
+def test_clips_with_nan_are_named_before_any_work(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
+    rotations = content.rotations.copy()
+    rotations[5, 3, 1] = np.nan
+    broken = Motion(content.skeleton, rotations, content.translations, content.fps)
+    with pytest.raises(BvhError, match="walk: NaN or infinite values, first at frame 5"):
+        transfer(broken, style_clip, model=model, content_name="walk")
+    with pytest.raises(BvhError, match="tired: NaN or infinite values, first at frame 5"):
+        prepare_style(model, [broken], names=["tired"])
+
+
+def test_wrong_types_say_what_to_pass(model, content: Motion, style_clip: Motion, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(TypeError, match="the style must be a Motion"):
+        transfer(content, None, model=model)  # type: ignore[arg-type]
+    with pytest.raises(ElastyleError, match="no style clips given"):
+        prepare_style(model, [])
+    with pytest.raises(ConfigError, match="config must be a TransferConfig"):
+        transfer(content, style_clip, {"strength": 0.5}, model=model)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match="--cleanup: must be True or False"):
+        TransferConfig(cleanup="no")  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match="--strength"):
+        TransferConfig(strength=None)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="model must be a StyleModel or a model file's path"):
+        transfer(content, style_clip, model=3)  # type: ignore[arg-type]
+    result = transfer(content, style_clip, model=model, strength=0.0)
+    with pytest.raises(TypeError, match="pass result.motion"):
+        write_bvh(tmp_path / "out.bvh", result)  # type: ignore[arg-type]
+    with pytest.raises(UsageError, match="for glTF use elastyle.write_clip"):
+        write_bvh(tmp_path / "out.glb", result.motion)
+    assert not list(tmp_path.iterdir())
+    write_clip(tmp_path / "out.glb", result.motion)  # the format by the name
+    assert (tmp_path / "out.glb").read_bytes()[:4] == b"glTF"
+
+
+def test_options_in_python_types(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
+    """Parts as a list, numbers as numpy scalars, the model as a path: what a Python caller has at hand."""
+    as_list = TransferConfig(keep_part=["legs", "right-arm"], patch_s=np.float32(0.75))  # type: ignore[arg-type]
+    assert as_list.keep_part == "legs,right-arm" and as_list.kept_parts == ("legs", "right-arm")
+    by_path = transfer(content, style_clip, model=elastyle.model.file.default_model_path(), strength=0.0)
+    assert np.array_equal(by_path.motion.rotations, content.rotations)
+
+
+def test_read_bvh_takes_paths_as_text_or_bytes_and_nothing_else(walk_clip, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    path = tmp_path / "walk.bvh"
+    path.write_bytes(walk_clip.data())
+    text_path, _ = read_bvh(str(path))
+    bytes_path, _ = read_bvh(os.fsencode(path))
+    assert np.array_equal(text_path.rotations, bytes_path.rotations)
+    with pytest.raises(TypeError, match="takes a file's path.*parse_bvh"):
+        read_bvh(path.read_bytes())  # the file's text, not its name
+    with pytest.raises(TypeError, match="takes a file's path"):
+        read_bvh(None)  # type: ignore[arg-type]
