@@ -26,6 +26,12 @@ def _command_info(args: argparse.Namespace) -> int:
     from elastyle.core.body import centimetres_per_unit, standing_height
     from elastyle.io.dataset import find_clips
 
+    for path in args.clip:
+        if path.lower().endswith(".ckpt"):
+            raise UsageError(
+                f"{path}: a training checkpoint, not a model: `elastyle train CLIPS -o MODEL.npz --resume {path}` "
+                "continues it, and `elastyle info MODEL.npz` describes the model that writes"
+            )
     models = [path for path in args.clip if path.lower().endswith(".npz")]
     for path in models:
         _print_model_info(path)
@@ -72,6 +78,9 @@ def _print_model_info(path: str) -> None:
         )
     recipe = metadata.get("train_config")
     if isinstance(recipe, dict):
+        window_s = recipe.get("window_s")
+        if isinstance(metadata.get("window_frames"), int):  # as trained (shorter where the clips were)
+            window_s = metadata["window_frames"] / model.fps
         augment = ", ".join(
             f"{name} {recipe[key]:g}"
             for name, key in (("reverse", "reverse_augment"), ("speed", "speed_augment"),
@@ -80,7 +89,7 @@ def _print_model_info(path: str) -> None:
         )  # fmt: skip
         print(
             f"  recipe:   batch {recipe.get('batch_size')}, learning rate {recipe.get('learning_rate'):g} "
-            f"{recipe.get('lr_schedule', 'constant')}, windows {recipe.get('window_s'):g} s"
+            f"{recipe.get('lr_schedule', 'constant')}, windows {window_s:.3g} s"
             f"{', mirrored' if recipe.get('mirror_augment') else ''}{', ' + augment if augment else ''}"
         )
     error = metadata.get("held_out_joint_error_cm")

@@ -67,9 +67,10 @@ def parse_bvh(data: bytes, name: str) -> tuple[Motion, BvhLayout]:
     if not data.strip():
         raise BvhError(name, "empty file")
     if data.startswith(b"PK\x03\x04"):
-        raise BvhError(
-            name, "a zip archive, not a BVH file: name one clip inside it (ARCHIVE.zip/folder/clip.bvh)"
+        inside = (
+            ": name one clip inside it (ARCHIVE.zip/folder/clip.bvh)" if name.lower().endswith(".zip") else ""
         )
+        raise BvhError(name, f"a zip archive, not a BVH file{inside}")
     if b"\x00" in data[:4096]:
         raise BvhError(name, "binary data, not a BVH text file")
     try:

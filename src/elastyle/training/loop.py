@@ -170,6 +170,11 @@ def train(
     std = np.maximum(stacked.std(axis=0), 1e-2)  # constant channels (unused joints) stay finite
     # a window as long as asked where clips allow, but never longer than the longest clip
     window = max(2, min(int(round(config.window_s * fps)), max(f.shape[0] for f in train_features)))
+    if window < int(round(config.window_s * fps)):
+        log.info(
+            "note: the longest training clip is %.2f s, so windows are %.2f s instead of --window-s %g",
+            window / fps, window / fps, config.window_s,
+        )  # fmt: skip
     train_norm = [((f - mean) / std).astype(np.float32) for f in train_features]
     val_norm = [((f - mean) / std).astype(np.float32) for f in val_features if f.shape[0] >= window]
     longest = max(f.shape[0] for f in train_features)
@@ -213,9 +218,17 @@ def train(
     if progress:
         from tqdm import tqdm
 
-        bar = tqdm(
-            total=config.steps, initial=step, unit="step", dynamic_ncols=True, disable=None
-        )  # a terminal only
+        if config.steps is not None:
+            bar = tqdm(total=config.steps, initial=step, unit="step", dynamic_ncols=True, disable=None)
+        else:  # a budget of minutes: the bar counts seconds, so it shows what is left
+            bar = tqdm(
+                total=round(budget_s),
+                initial=round(elapsed_before),
+                unit="s",
+                dynamic_ncols=True,
+                disable=None,
+                bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s [{elapsed}<{remaining}{postfix}]",
+            )  # fmt: skip  (a terminal only, both)
     started = time.perf_counter()
     val_loss = float("nan")
     train_loss = float("nan")
@@ -265,11 +278,24 @@ def train(
                 with torch.no_grad():
                     val_loss = float(torch.mean((network(val_batch) - val_batch) ** 2))
             if bar is not None:
-                bar.update(1)
-                bar.set_postfix(loss=f"{train_loss:.4f}", val=f"{val_loss:.4f}")
+                spent_s = min(
+                    elapsed_before + time.perf_counter() - started, budget_s
+                )  # seconds, for the bar
+                done = 1 if config.steps is not None else spent_s - bar.n
+                bar.update(done)
+                shown = {"step": step, "loss": f"{train_loss:.4f}"}
+                if math.isfinite(val_loss):
+                    shown["held_out"] = f"{val_loss:.4f}"
+                bar.set_postfix(shown, refresh=False)
             if step % config.checkpoint_every == 0:
                 spent = elapsed_before + time.perf_counter() - started
                 _save_checkpoint(checkpoint_path, network, optimizer, step, spent, config)
+                if bar is None or bar.disable:  # no bar (not a terminal): a line per checkpoint
+                    held = f", held-out {val_loss:.4f}" if math.isfinite(val_loss) else ""
+                    log.info(
+                        "step %d, %.1f min: loss %.4f%s (checkpoint %s)",
+                        step, spent / 60, train_loss, held, checkpoint_path,
+                    )  # fmt: skip
     finally:
         stop.release()
     if bar is not None:
@@ -289,6 +315,7 @@ def train(
         "train_config": json.loads(json.dumps(asdict(config))),
         "steps": step,
         "training_minutes": round(elapsed / 60, 2),
+        "window_frames": window,  # as trained: at most --window-s, never longer than the longest clip
         "final_train_loss": train_loss,
         "held_out_loss": val_loss if math.isfinite(val_loss) else None,  # None: no clip was held out
         "training_clips": len(training),
