@@ -86,3 +86,12 @@ def test_read_bvh_takes_paths_as_text_or_bytes_and_nothing_else(walk_clip, tmp_p
         read_bvh(path.read_bytes())  # the file's text, not its name
     with pytest.raises(TypeError, match="takes a file's path"):
         read_bvh(None)  # type: ignore[arg-type]
+
+
+def test_a_second_weight_without_a_second_style_is_refused(
+    model, content: Motion, style_clip: Motion
+) -> None:  # type: ignore[no-untyped-def]
+    """Before, the share was silently ignored."""
+    with pytest.raises(ConfigError, match="no second_style is given"):
+        transfer(content, style_clip, model=model, second_weight=0.5)
+    transfer(content, style_clip, model=model, second_weight=0.0, strength=0.0)  # a zero share is no share

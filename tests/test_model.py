@@ -233,3 +233,22 @@ def test_ctrl_c_ends_training_with_a_checkpoint_to_resume(tmp_path: Path, data_p
     assert "interrupted at step" in stderr and f"--resume {checkpoint}" in stderr, stderr
     assert checkpoint.exists() and not output.exists()
     assert "Traceback" not in stderr
+
+
+@pytest.mark.slow
+def test_resuming_on_other_clips_says_so(trained, tmp_path: Path, data_path: Path, caplog) -> None:  # type: ignore[no-untyped-def]
+    """Before, a checkpoint resumed on another set of clips went on silently, its normalisation read anew."""
+    import logging
+
+    from elastyle.training.config import TrainConfig
+    from elastyle.training.loop import train
+
+    path, _ = trained
+    if not str(data_path).endswith(".zip"):
+        pytest.skip("the clip globs below name clips inside the dataset zip")
+    fewer = f"{data_path}/bandai-namco-2/data/dataset-2_walk_*_00[1-3].bvh"
+    with caplog.at_level(logging.INFO, logger="elastyle"):
+        train([fewer], str(tmp_path / "other.npz"), TrainConfig(steps=300, learning_rate=1e-3, seed=0),
+              resume=str(path) + ".ckpt", progress=False)  # fmt: skip
+    assert any("was trained on" in r.message and "these are" in r.message for r in caplog.records)
+    assert any("wrote" in r.message and "after 300 steps" in r.message for r in caplog.records)

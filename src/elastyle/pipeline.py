@@ -112,6 +112,8 @@ def transfer(
     where something else than a clip is given.
     """
     config = TransferConfig.of(config, **options)
+    if second_style is None and np.any(_as_schedule(second_weight).values):
+        raise ConfigError("second_weight is the share of second_style, and no second_style is given")
     _check_clip_type(content, "content")
     check_finite_clip(content, content_name)
     model = as_model(model)

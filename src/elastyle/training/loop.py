@@ -131,6 +131,7 @@ def train(
     if not clips:
         raise ElastyleError(f"{', '.join(map(str, data))}: every clip is excluded by {', '.join(exclude)}")
     training, held_out = split_held_out(clips, config.holdout_every)
+    clip_names = sorted(c.stem for c in training)  # recorded in checkpoints: a resume says if they differ
     log.info(
         "clips: %d for training, %d held out (takes numbered %% %d == 0, the number ending the file name; names "
         "without one, one in %d by checksum)", len(training), len(held_out), config.holdout_every, config.holdout_every,
@@ -206,6 +207,13 @@ def train(
         elapsed_before = float(state["elapsed_s"])
         rng = np.random.default_rng(config.seed + step)
         log.info("resumed from %s at step %d", resume, step)
+        recorded = state.get("clip_names")
+        if recorded is not None and list(recorded) != clip_names:
+            log.warning(
+                "warning: %s was trained on %d clip(s), these are %d (%d of them the same): training goes on "
+                "with these, its normalisation read from them", resume, len(recorded), len(clip_names),
+                len(set(recorded) & set(clip_names)),
+            )  # fmt: skip
     budget_steps = config.steps if config.steps is not None else 10**9
     budget_s = config.minutes * 60 if config.minutes is not None else math.inf
     if config.steps is None and config.minutes is None:
@@ -289,7 +297,7 @@ def train(
                 bar.set_postfix(shown, refresh=False)
             if step % config.checkpoint_every == 0:
                 spent = elapsed_before + time.perf_counter() - started
-                _save_checkpoint(checkpoint_path, network, optimizer, step, spent, config)
+                _save_checkpoint(checkpoint_path, network, optimizer, step, spent, config, clip_names)
                 if bar is None or bar.disable:  # no bar (not a terminal): a line per checkpoint
                     held = f", held-out {val_loss:.4f}" if math.isfinite(val_loss) else ""
                     log.info(
@@ -301,7 +309,7 @@ def train(
     if bar is not None:
         bar.close()
     elapsed = elapsed_before + time.perf_counter() - started
-    _save_checkpoint(checkpoint_path, network, optimizer, step, elapsed, config)
+    _save_checkpoint(checkpoint_path, network, optimizer, step, elapsed, config, clip_names)
     if stop.asked:
         log.warning(
             "interrupted at step %d: the training so far is in %s; continue it with `elastyle train ... -o %s "
@@ -338,7 +346,14 @@ def train(
     measured = (
         f"held-out loss {val_loss:.4f}" if math.isfinite(val_loss) else "no clip held out to measure it"
     )
-    log.info("wrote %s after %d steps (%.1f min), %s", output, step, elapsed / 60, measured)
+    log.info(
+        "wrote %s after %d step%s (%.1f min), %s",
+        output,
+        step,
+        "" if step == 1 else "s",
+        elapsed / 60,
+        measured,
+    )
     if "reconstruction_warn_cm" not in metadata:
         log.warning(
             "note: %s: with no held-out clip to measure it on, its out-of-depth warning uses the default %.1f "
@@ -372,7 +387,13 @@ class _StopOnInterrupt:
 
 
 def _save_checkpoint(
-    path: Path, network: Any, optimizer: Any, step: int, elapsed_s: float, config: TrainConfig
+    path: Path,
+    network: Any,
+    optimizer: Any,
+    step: int,
+    elapsed_s: float,
+    config: TrainConfig,
+    clip_names: list[str],
 ) -> None:
     """The training's state, and the settings it runs with (`checkpoint_config`), written atomically."""
     import torch
@@ -385,6 +406,7 @@ def _save_checkpoint(
             "step": step,
             "elapsed_s": elapsed_s,
             "train_config": json.dumps(asdict(config)),
+            "clip_names": clip_names,
         },
         temporary,
     )
