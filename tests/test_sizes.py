@@ -93,3 +93,23 @@ def test_the_unit_is_guessed_from_the_bodys_height_not_its_rest_pose(
 def test_a_guessed_unit_other_than_centimetres_is_said(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
     notes = transfer(content.slice(0, 60).scaled(1 / 2.54), style_clip, model=model).explain["notes"]
     assert any("guessed as in" in note and "--units" in note for note in notes), notes
+
+
+def test_a_guessed_unit_is_printed_once_per_rig_and_kept_in_every_record(
+    model, content: Motion, style_clip: Motion, caplog: pytest.LogCaptureFixture
+) -> None:  # type: ignore[no-untyped-def]
+    """A batch of one rig's clips in metres printed the same note for every clip (a cold review's run)."""
+    import logging
+
+    from elastyle import pipeline
+
+    pipeline._SAID_ONCE.clear()  # as in a new process
+    metres = content.slice(0, 60).scaled(0.01)  # centimetres as metres
+    with caplog.at_level(logging.WARNING, logger="elastyle"):
+        records = [
+            transfer(metres, style_clip, model=model, content_name=f"clip{i}", strength=0.0).explain["notes"]
+            for i in range(3)
+        ]
+    assert all(any("length unit guessed" in note for note in notes) for notes in records)
+    printed = [r.message for r in caplog.records if "length unit guessed" in r.message]
+    assert len(printed) == 1, printed

@@ -124,12 +124,14 @@ def transfer(
     notes: list[str] = []  # every note and warning printed, also kept in the explain record
     if renamed is not None:
         _say(notes, renamed)
-    for note in (
-        guessed_unit_note(given.skeleton, content_name),
-        no_legs_note(content.skeleton, content_name) if config.cleanup else None,
-    ):
-        if note is not None:
-            _say(notes, note)
+    unit_note = guessed_unit_note(given.skeleton, content_name)
+    if (
+        unit_note is not None
+    ):  # printed once per rig and size in a process (a batch of a rig's clips), kept always
+        _say(notes, unit_note, once=(given.skeleton.names, round(centimetres_per_unit(given.skeleton), 6)))
+    legs_note = no_legs_note(content.skeleton, content_name) if config.cleanup else None
+    if legs_note is not None:
+        _say(notes, legs_note)
     fps = model.fps
     working, per_model_frame = content.resample_to_end(fps)  # ending at the content's last frame
     if working.num_frames < 2:
@@ -382,9 +384,16 @@ def _check_clip_type(value: object, role: str) -> None:
         )
 
 
-def _say(notes: list[str], text: str) -> None:
-    """Print a note or warning (stderr, through logging) and keep it for the explain record."""
-    log.warning("%s", text)
+_SAID_ONCE: set[object] = set()  # the keys of notes printed once per process
+
+
+def _say(notes: list[str], text: str, once: object = None) -> None:
+    """Print a note or warning (stderr, through logging) and keep it for the explain record; with a key
+    `once`, printed only the first time that key comes in this process (kept in the record every time)."""
+    if once is None or once not in _SAID_ONCE:
+        log.warning("%s", text)
+        if once is not None:
+            _SAID_ONCE.add(once)
     notes.append(text)
 
 
