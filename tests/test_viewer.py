@@ -378,3 +378,28 @@ def test_the_floor_lies_under_the_feet_whatever_else_hangs_low(dataset_clips: li
     assert armed.positions()[:, -1, 1].max() < walk.positions()[:, skeleton.index("Toes_R"), 1].min() - 5
     grounds = [build_payload([motion], ["clip"])["clips"][0]["ground"] for motion in (walk, armed)]
     assert grounds[1] == pytest.approx(grounds[0])
+
+
+def test_view_warns_of_an_explain_file_written_for_another_output(
+    three_channel_bvh: Path, tmp_path: Path
+) -> None:
+    """An explain file names the output it was written for; shown beside other clips, it is said (before:
+    its patches were drawn on a clip they do not describe without a word)."""
+    explain = write_explain(tmp_path / "explain.json", "style.bvh")
+    record = json.loads(explain.read_text())
+    record["output"] = "/some/folder/styled_walk.bvh"
+    explain.write_text(json.dumps(record))
+    assert read_explain(explain)["output"] == "styled_walk.bvh"  # the name only: no folder goes out
+    command = [sys.executable, "-c", VIEW_HARNESS, "view", str(three_channel_bvh), "--explain", str(explain),
+               "--no-browser", "--port", "0"]  # fmt: skip
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert process.stdout is not None and process.stderr is not None
+        ready, _, _ = select.select([process.stdout], [], [], 30)
+        assert ready, "the view command printed nothing within 30 s"
+        assert "http://127.0.0.1:" in process.stdout.readline()
+    finally:
+        process.terminate()
+        process.wait(timeout=10)
+    stderr = process.stderr.read()
+    assert "explain.json was written for styled_walk.bvh, which is not among the clips shown" in stderr

@@ -81,6 +81,11 @@ def run_view(args: argparse.Namespace) -> int:
         raise UsageError(f"--port must lie between 0 and 65535, got {args.port}")
     explain = read_explain(args.explain) if args.explain else None
     motions, labels = _read_clips(args.clips, args.units)
+    if explain is not None and explain["output"] and explain["output"] not in labels:
+        log.warning(
+            "warning: %s was written for %s, which is not among the clips shown: its patches are drawn on "
+            "their timeline all the same", args.explain, explain["output"],
+        )  # fmt: skip
     payload = build_payload(motions, labels, explain)
     if args.port is None:
         try:

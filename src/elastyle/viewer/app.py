@@ -113,7 +113,12 @@ def read_explain(path: str | os.PathLike[str]) -> dict[str, Any]:
         except (KeyError, TypeError, ValueError) as error:
             raise ElastyleError(f"{path}: a patch lacks or mangles field {error}") from None
         tracks.append({"patches": sorted(rows, key=lambda row: row["output_start_s"])})
-    return {"source": Path(path).name, "styles": tracks}
+    output = record.get("output")  # the output file it was written for (older files do not say)
+    return {
+        "source": Path(path).name,
+        "styles": tracks,
+        "output": PurePath(str(output)).name if output else None,
+    }
 
 
 def _decision(patch: dict[str, Any]) -> dict[str, Any]:
