@@ -3,6 +3,7 @@ own types or TypeErrors that say what to pass, never a numpy or attribute error 
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
@@ -23,6 +24,7 @@ from elastyle import (
     write_bvh,
     write_clip,
 )
+from elastyle.steps.schedule import Schedule
 
 
 def test_too_few_or_too_many_style_names_are_refused(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
@@ -72,8 +74,13 @@ def test_options_in_python_types(model, content: Motion, style_clip: Motion) -> 
     """Parts as a list, numbers as numpy scalars, the model as a path: what a Python caller has at hand."""
     as_list = TransferConfig(keep_part=["legs", "right-arm"], patch_s=np.float32(0.75))  # type: ignore[arg-type]
     assert as_list.keep_part == "legs,right-arm" and as_list.kept_parts == ("legs", "right-arm")
-    by_path = transfer(content, style_clip, model=elastyle.model.file.default_model_path(), strength=0.0)
-    assert np.array_equal(by_path.motion.rotations, content.rotations)
+    assert type(as_list.patch_s) is float  # numpy's numbers as Python's: the explain record stays JSON
+    by_path = transfer(content, style_clip, as_list, model=elastyle.model.file.default_model_path())
+    json.dumps(by_path.explain)
+    keyframed = TransferConfig(strength=Schedule((0.0, 2.0), (0.0, 1.0)))  # type: ignore[arg-type]
+    assert keyframed.strength_schedule == Schedule((0.0, 2.0), (0.0, 1.0))
+    unchanged = transfer(content, style_clip, model=model, strength=np.float64(0.0))
+    assert np.array_equal(unchanged.motion.rotations, content.rotations)
 
 
 def test_read_bvh_takes_paths_as_text_or_bytes_and_nothing_else(walk_clip, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]

@@ -214,28 +214,35 @@ def _frame_values(text: str) -> np.ndarray:
     return np.array([[float(value) for value in row.split()] for row in rows])
 
 
-def _with_angles(text: str, column: int, angles: np.ndarray) -> str:
-    """The BVH text with one channel's values (T,) replaced, frame by frame."""
+def _with_values(text: str, values: np.ndarray) -> str:
+    """The BVH text with its MOTION section's numbers (T, channels) replaced."""
     head, rest = text.split("Frame Time:")
-    time_line, rows = rest.split("\n", 1)
-    values = _frame_values(text)
-    values[:, column] = angles
+    time_line = rest.split("\n", 1)[0]
     body = "\n".join(" ".join(f"{v:.6f}" for v in row) for row in values)
     return f"{head}Frame Time:{time_line}\n{body}\n"
 
 
-@pytest.mark.parametrize("wrapped", [True, False])
-def test_angles_are_written_as_the_file_writes_them(three_channel_bvh: Path, wrapped: bool) -> None:
-    """A file whose angles wrap at 180 degrees is written wrapping where the clip crosses it; a file whose
-    angles run on past 180 is written continuous from its first frame's turn: either way the file's own
-    clip is written with the file's numbers."""
+@pytest.mark.parametrize("convention", ["wrapped", "from zero", "continuous"])
+def test_angles_are_written_as_the_file_writes_them(three_channel_bvh: Path, convention: str) -> None:
+    """A file whose angles wrap at 180 degrees is written wrapping where the clip crosses it (one keeping
+    them within 0 to 360, wrapping at 360); a file whose angles run on is written continuous from its first
+    frame's turn: either way the file's own clip is written with the file's numbers."""
     original = three_channel_bvh.read_text()
     frames = len(_frame_values(original))
     turning = np.linspace(170.0, 190.0, frames)  # the spine's X angle (column 6) crosses 180 degrees
-    angles = np.where(turning > 180, turning - 360, turning) if wrapped else turning + 360.0
-    text = _with_angles(original, 6, angles)
+    angles = {
+        "wrapped": np.where(turning > 180, turning - 360, turning),
+        "from zero": np.linspace(350.0, 370.0, frames) % 360,  # crosses 360, every angle positive
+        "continuous": turning + 360.0,
+    }[convention]
+    values = _frame_values(original)
+    values[:, 6] = angles
+    if convention == "from zero":  # every angle within 0 to 360, as such a file has them (columns 3 on)
+        values[:, 3:] %= 360
+    text = _with_values(original, values)
     motion, layout = parse_bvh(text.encode(), "turning.bvh")
-    assert layout.angles_wrap == wrapped
+    assert layout.angles_wrap == (convention != "continuous")
+    assert layout.angles_low == (0.0 if convention == "from zero" else -180.0)
     written = _frame_values(bvh_text(motion, layout))
     np.testing.assert_allclose(written, _frame_values(text), atol=2e-6)
     # a clip from no file: continuous, its first angle within -180 to 180

@@ -125,9 +125,8 @@ def transfer(
     if renamed is not None:
         _say(notes, renamed)
     unit_note = guessed_unit_note(given.skeleton, content_name)
-    if (
-        unit_note is not None
-    ):  # printed once per rig and size in a process (a batch of a rig's clips), kept always
+    # printed once per rig and size in a process (a batch of one rig's clips), kept in every record
+    if unit_note is not None:
         _say(notes, unit_note, once=(given.skeleton.names, round(centimetres_per_unit(given.skeleton), 6)))
     legs_note = no_legs_note(content.skeleton, content_name) if config.cleanup else None
     if legs_note is not None:

@@ -20,12 +20,15 @@ class BvhLayout(NamedTuple):
     up: the file's up axis ("y" or "z", `core.up`): a clip read from a file standing along +Z is turned to
         +Y up, and turned back where it is written in this layout.
     first_values: per joint (J,), its channels' values in the file's first frame (channel order; empty
-        without frames): a clip written in this layout starts each rotation channel on the same turn
-        (within 180 degrees of the file's first value), so its curves lie where the file's do.
-    angles_wrap: whether the file's rotation channels jump by a turn where an angle crosses 180 degrees
-        (kept within -180 to 180, as many exporters write them) rather than running on continuously: a
-        clip written in this layout does the same. Either way, a clip that is the file's own motion is
-        written with the file's numbers.
+        without frames): a clip written in this layout starts each continuous rotation channel on the same
+        turn (within 180 degrees of the file's first value), so its curves lie where the file's do.
+    angles_wrap: whether the file's rotation channels jump by a turn where an angle crosses the end of
+        their range (-180 to 180 degrees, as many exporters write them, or 0 to 360: `angles_low`) rather
+        than running on continuously: a clip written in this layout does the same. Either way the file's
+        own motion is written with the file's numbers, where the file's Euler angles are the usual
+        solution (the middle angle within -90 to 90 degrees: the same rotation past it is written as the
+        other solution).
+    angles_low: where a wrapping file's angles start, -180 or 0 degrees.
     """
 
     channels: tuple[tuple[str, ...], ...]
@@ -33,6 +36,7 @@ class BvhLayout(NamedTuple):
     up: str = "y"
     first_values: tuple[tuple[float, ...], ...] = ()
     angles_wrap: bool = False
+    angles_low: float = -180.0
 
     @staticmethod
     def default(skeleton: Skeleton, fps: float, moving: Sequence[int] = ()) -> BvhLayout:

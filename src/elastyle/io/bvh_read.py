@@ -87,19 +87,22 @@ def parse_bvh(data: bytes, name: str) -> tuple[Motion, BvhLayout]:
     motion_values, frame_time_s = _parse_motion(reader, sum(len(c) for c in channels))
     fps = frame_rate(frame_time_s)
     motion = _motion_from_channels(name, skeleton, channels, motion_values, fps)
+    wrap, low = _angle_range(channels, motion_values)
     layout = BvhLayout(
         tuple(channels), frame_time_s, first_values=_first_values(channels, motion_values),
-        angles_wrap=_angles_wrap(channels, motion_values),
+        angles_wrap=wrap, angles_low=low,
     )  # fmt: skip
     return motion, layout
 
 
-def _angles_wrap(channels: list[tuple[str, ...]], values: FloatArray) -> bool:
+def _angle_range(channels: list[tuple[str, ...]], values: FloatArray) -> tuple[bool, float]:
     """Whether a rotation channel of the file's values (T, total channels) jumps by over half a turn from
-    one frame to the next: angles kept within -180 to 180 degrees, wrapping where they cross."""
+    one frame to the next (angles kept within one turn, wrapping where they cross its end), and where that
+    turn starts: 0 degrees where no angle is negative, else -180."""
     rotation = np.array([channel in ROTATION_CHANNELS for joint in channels for channel in joint], dtype=bool)
     angles = values[:, rotation] if len(values) else values
-    return bool(len(angles) > 1 and np.any(np.abs(np.diff(angles, axis=0)) > 180.0))
+    wrap = bool(len(angles) > 1 and np.any(np.abs(np.diff(angles, axis=0)) > 180.0))
+    return wrap, 0.0 if wrap and np.min(angles) >= 0 else -180.0
 
 
 def _first_values(channels: list[tuple[str, ...]], values: FloatArray) -> tuple[tuple[float, ...], ...]:

@@ -89,7 +89,10 @@ def write_bvh(
     name's extension.)"""
     check_clip_argument(motion)
     if Path(path).suffix.lower() in (".glb", ".gltf"):
-        raise UsageError(f"{path}: write_bvh writes BVH text; for glTF use elastyle.write_clip(path, motion)")
+        raise UsageError(
+            f"{path}: write_bvh writes BVH text; for binary glTF name the file .glb and use "
+            "elastyle.write_clip(path, motion)"
+        )
     refuse_non_finite(path, motion)
     write_text_atomic(path, bvh_text(motion, layout), force=force, inputs=inputs)
 
@@ -140,8 +143,8 @@ def _format_vector(vector: FloatArray) -> str:
 
 def _channel_values(motion: Motion, layout: BvhLayout, written: list[int]) -> FloatArray:
     """Frame data (T, total channels) of the joints in `written` order (the file's), each in its layout's
-    channel order; angles within -180 to 180 degrees where the layout's file wraps them, else continuous
-    along time from the turn of its first frame."""
+    channel order; angles within the layout's file's turn (-180 to 180 or 0 to 360 degrees) where it wraps
+    them, else continuous along time from the turn of its first frame."""
     values = np.zeros((motion.num_frames, sum(len(c) for c in layout.channels)))
     positions, by_order = channel_columns([layout.channels[joint] for joint in written])
     for at, axis, column in positions:
@@ -149,6 +152,8 @@ def _channel_values(motion: Motion, layout: BvhLayout, written: list[int]) -> Fl
     for order, (at_joints, columns) in by_order.items():  # every joint of one Euler order at once
         joints = [written[at] for at in at_joints]
         angles_deg = rotvec_to_euler(order, motion.rotations[:, joints])  # (T, J_order, 3)
+        if layout.angles_wrap and layout.angles_low == 0:  # a file keeping its angles within 0 to 360
+            angles_deg = np.mod(angles_deg, 360.0)
         if not layout.angles_wrap:  # else as rotvec_to_euler gives them, within -180 to 180
             angles_deg = np.unwrap(angles_deg, period=360.0, axis=0)
             first = first_rotation_values(layout, joints)

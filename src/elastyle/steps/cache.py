@@ -11,7 +11,6 @@ from __future__ import annotations
 import hashlib
 import logging
 import os
-import zipfile
 from collections.abc import Callable
 from pathlib import Path
 
@@ -58,8 +57,9 @@ def model_fingerprint(model: StyleModel) -> str:
 
 # 2: one BLAS thread; 3: action descriptors; 4: their ground by nearest sample; 5: clips at the model's size; 6: the root path
 # smoothed to the clip's ends (`core.smoothing.smooth_path`: the latents near its ends change); 7: clips standing
-# along +Z read turned to +Y up (`core.up`), the reading's --up in the key
-CACHE_VERSION = 7
+# along +Z read turned to +Y up (`core.up`), the reading's --up in the key; 8: a clip read under other joint names
+# mirrored by the model's names (`steps.library`)
+CACHE_VERSION = 8
 
 
 def library_key(
@@ -105,7 +105,7 @@ def load_library(
             log.debug("style library from cache %s", path)
             os.utime(path)  # recently used: kept longest when the cache is pruned
             return library
-        except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile):  # empty, cut short, garbled
+        except Exception:  # empty, cut short or garbled in any way: only a cache, so a miss
             log.debug("unreadable cache entry %s: encoding again", path)
     motions = [clip.read()[0] for clip in clips]
     for clip, motion in zip(clips, motions):

@@ -182,8 +182,14 @@ class TransferConfig:
     def __post_init__(self) -> None:
         if isinstance(self.keep_part, (list, tuple)):  # parts as a list in Python, as comma-separated text
             object.__setattr__(self, "keep_part", ",".join(map(str, self.keep_part)))
+        if isinstance(self.strength, Schedule):  # keyframes as the command line writes them
+            object.__setattr__(self, "strength", self.strength.text())
         for spec in fields(self):
             value = getattr(self, spec.name)
+            # numpy's numbers and booleans as Python's, so the explain record (which copies the fields) is JSON
+            if isinstance(value, (np.bool_, np.number)):
+                value = value.item()
+                object.__setattr__(self, spec.name, value)
             if spec.type == "bool" and not isinstance(value, (bool, np.bool_)):
                 raise ConfigError(f"--{spec.name.replace('_', '-')}: must be True or False, got {value!r}")
             if spec.type == "str" and not isinstance(value, str):

@@ -17,6 +17,12 @@ class Schedule(NamedTuple):
     times_s: tuple[float, ...]
     values: tuple[float, ...]
 
+    def text(self) -> str:
+        """The schedule as `parse` reads it: 'SECONDS:VALUE,...' ('VALUE' for a constant)."""
+        if len(self.values) == 1:
+            return f"{self.values[0]:.17g}"
+        return ",".join(f"{t:.17g}:{v:.17g}" for t, v in zip(self.times_s, self.values))
+
     @staticmethod
     def constant(value: float) -> Schedule:
         return Schedule((0.0,), (float(value),))
