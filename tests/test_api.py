@@ -63,7 +63,7 @@ def test_wrong_types_say_what_to_pass(model, content: Motion, style_clip: Motion
     result = transfer(content, style_clip, model=model, strength=0.0)
     with pytest.raises(TypeError, match="pass result.motion"):
         write_bvh(tmp_path / "out.bvh", result)  # type: ignore[arg-type]
-    with pytest.raises(UsageError, match="for glTF use elastyle.write_clip"):
+    with pytest.raises(UsageError, match="for binary glTF name the file .glb and use elastyle.write_clip"):
         write_bvh(tmp_path / "out.glb", result.motion)
     assert not list(tmp_path.iterdir())
     write_clip(tmp_path / "out.glb", result.motion)  # the format by the name
@@ -102,3 +102,15 @@ def test_a_second_weight_without_a_second_style_is_refused(
     with pytest.raises(ConfigError, match="no second_style is given"):
         transfer(content, style_clip, model=model, second_weight=0.5)
     transfer(content, style_clip, model=model, second_weight=0.0, strength=0.0)  # a zero share is no share
+
+
+def test_the_config_documents_every_field() -> None:
+    """help(TransferConfig) lists each field with its default, range or choices and meaning (before, they
+    were only in the command line's --help)."""
+    from dataclasses import fields
+
+    doc = TransferConfig.__doc__ or ""
+    for spec in fields(TransferConfig):
+        assert f"    {spec.name} = {spec.default!r}" in doc, spec.name
+    assert "    patch_s = 1.0 (0, 60]: patch length, seconds" in doc
+    assert "    method = 'elastic' (elastic, rigid, wct, adain): " in doc

@@ -247,6 +247,24 @@ class TransferConfig:
         return np.array(sorted(lengths))
 
 
+def _field_list() -> str:
+    """Each field of `TransferConfig` with its default, allowed values and meaning, for its docstring."""
+    lines = []
+    for spec in fields(TransferConfig):
+        meta = spec.metadata
+        allowed = f" ({', '.join(meta['choices'])})" if meta.get("choices") else ""
+        if meta.get("low") is not None:
+            left, right = ("(" if meta["low_open"] else "["), (")" if meta["high_open"] else "]")
+            allowed = f" {left}{meta['low']:g}, {meta['high']:g}{right}"
+        lines.append(f"    {spec.name} = {spec.default!r}{allowed}: {meta['help']}")
+    return "\n".join(lines)
+
+
+TransferConfig.__doc__ = (
+    f"{TransferConfig.__doc__}\n\nFields (default, allowed values: meaning):\n{_field_list()}\n"
+)
+
+
 def _check(name: str, value: Any, metadata: Any) -> None:
     """One field against its declared choices and range; `ConfigError` naming the flag."""
     flag = "--" + name.replace("_", "-")
