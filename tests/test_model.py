@@ -231,6 +231,7 @@ def test_ctrl_c_ends_training_with_a_checkpoint_to_resume(tmp_path: Path, data_p
     _, stderr = process.communicate(timeout=120)
     assert process.returncode == 130, stderr
     assert "interrupted at step" in stderr and f"--resume {checkpoint}" in stderr, stderr
+    assert "warning: 4 training clip(s)" in "".join(before)  # so few clips are said to teach little
     assert checkpoint.exists() and not output.exists()
     assert "Traceback" not in stderr
 

@@ -40,6 +40,9 @@ from elastyle.training.windows import draw_speed, perturb_windows, sample_window
 log = logging.getLogger(__name__)
 
 
+FEW_CLIPS = 5  # fewer training clips than this get a warning
+
+
 def _read_resampled(task: tuple[ClipRef, float | None, str]) -> Motion:
     clip, fps, up = task
     motion, _ = clip.read(up)
@@ -132,6 +135,12 @@ def train(
         raise ElastyleError(f"{', '.join(map(str, data))}: every clip is excluded by {', '.join(exclude)}")
     training, held_out = split_held_out(clips, config.holdout_every)
     clip_names = sorted(c.stem for c in training)  # recorded in checkpoints: a resume says if they differ
+    if len(training) < FEW_CLIPS:
+        log.warning(
+            "warning: %d training clip(s): a model learns the motions it is shown, and so few teach it little "
+            "of the rig's range (the shipped model saw 2,346); give it every kind of motion the rig performs",
+            len(training),
+        )  # fmt: skip
     log.info(
         "clips: %d for training, %d held out (takes numbered %% %d == 0, the number ending the file name; names "
         "without one, one in %d by checksum)", len(training), len(held_out), config.holdout_every, config.holdout_every,
