@@ -114,3 +114,11 @@ def test_the_config_documents_every_field() -> None:
         assert f"    {spec.name} = {spec.default!r}" in doc, spec.name
     assert "    patch_s = 1.0 (0, 60]: patch length, seconds" in doc
     assert "    method = 'elastic' (elastic, rigid, wct, adain): " in doc
+
+
+def test_clips_print_briefly(content: Motion) -> None:
+    """A clip's repr says what it is in one line (before, kilobytes of arrays in every error and test log)."""
+    assert (
+        repr(content)
+        == "Motion(267 frames at 30 fps, Skeleton(22 joints: joint_Root, Hips, Spine, Chest, ...))"
+    )

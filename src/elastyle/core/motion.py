@@ -44,6 +44,9 @@ class Motion:
         if not self.fps > 0:
             raise ValueError(f"fps must be positive, got {self.fps}")
 
+    def __repr__(self) -> str:
+        return f"Motion({self.num_frames} frames at {self.fps:g} fps, {self.skeleton!r})"
+
     @property
     def num_frames(self) -> int:
         """T, the number of frames."""

@@ -60,6 +60,10 @@ class Skeleton:
     def num_joints(self) -> int:
         return len(self.names)
 
+    def __repr__(self) -> str:
+        shown = ", ".join(self.names[:4]) + (", ..." if self.num_joints > 4 else "")
+        return f"Skeleton({self.num_joints} joints: {shown})"
+
     def children(self, joint: int) -> list[int]:
         return [int(j) for j in np.flatnonzero(self.parents == joint)]
 
