@@ -17,7 +17,6 @@ from pathlib import Path
 import numpy as np
 
 from elastyle.core.motion import Motion
-from elastyle.core.threads import one_blas_thread
 from elastyle.errors import OutputError
 from elastyle.io.dataset import ClipRef, read_up
 from elastyle.io.files import megabytes_from_environment, write_bytes_atomic
@@ -75,7 +74,6 @@ def library_key(
     return digest.hexdigest()[:32]
 
 
-@one_blas_thread  # the pooled statistics' small products and eigendecomposition: one thread is the fast one
 def load_library(
     model: StyleModel,
     clips: list[ClipRef],

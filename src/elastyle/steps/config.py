@@ -247,6 +247,13 @@ class TransferConfig:
         return np.array(sorted(lengths))
 
 
+def _range_text(metadata: Any) -> str:
+    """A field's allowed range as an interval, '[0, 1]' or '(0, 60]'."""
+    left = "(" if metadata["low_open"] else "["
+    right = ")" if metadata["high_open"] else "]"
+    return f"{left}{metadata['low']:g}, {metadata['high']:g}{right}"
+
+
 def _field_list() -> str:
     """Each field of `TransferConfig` with its default, allowed values and meaning, for its docstring."""
     lines = []
@@ -254,8 +261,7 @@ def _field_list() -> str:
         meta = spec.metadata
         allowed = f" ({', '.join(meta['choices'])})" if meta.get("choices") else ""
         if meta.get("low") is not None:
-            left, right = ("(" if meta["low_open"] else "["), (")" if meta["high_open"] else "]")
-            allowed = f" {left}{meta['low']:g}, {meta['high']:g}{right}"
+            allowed = f" {_range_text(meta)}"
         lines.append(f"    {spec.name} = {spec.default!r}{allowed}: {meta['help']}")
     return "\n".join(lines)
 
@@ -279,6 +285,4 @@ def _check(name: str, value: Any, metadata: Any) -> None:
     below = value <= low if metadata["low_open"] else value < low
     above = value >= high if metadata["high_open"] else value > high
     if below or above:
-        left = "(" if metadata["low_open"] else "["
-        right = ")" if metadata["high_open"] else "]"
-        raise ConfigError(f"{flag}: must lie in {left}{low:g}, {high:g}{right}, got {value:g}")
+        raise ConfigError(f"{flag}: must lie in {_range_text(metadata)}, got {value:g}")

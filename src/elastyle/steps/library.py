@@ -114,12 +114,14 @@ def prepare_style(
     shipped model); motions: one clip or several; names: one per clip (style0, style1, ... by default)."""
     model = as_model(model)
     motions = [motions] if isinstance(motions, Motion) else list(motions)
-    _check_style_clips(motions, names)
+    _check_style_clips(motions)
     if names is not None and len(names) != len(motions):
         raise ConfigError(
             f"{len(names)} style name(s) for {len(motions)} style clip(s): give one name per clip"
         )
     names = list(names) if names is not None else [f"style{i}" for i in range(len(motions))]
+    for name, motion in zip(names, motions):  # every clip checked before any is encoded
+        check_finite_clip(motion, name)
     clips: list[tuple[str, bool, Motion]] = []
     for name, motion in zip(names, motions):
         model.check_clip(motion, name)
@@ -184,9 +186,8 @@ def as_library(
     )
 
 
-def _check_style_clips(motions: Sequence[Motion], names: Sequence[str] | None = None) -> None:
-    """An `ElastyleError` without clips or for a clip holding NaN, a `TypeError` naming what was given where a
-    clip belongs."""
+def _check_style_clips(motions: Sequence[Motion]) -> None:
+    """An `ElastyleError` without clips, a `TypeError` naming what was given where a clip belongs."""
     if not motions:
         raise ElastyleError("no style clips given")
     for motion in motions:
@@ -195,7 +196,3 @@ def _check_style_clips(motions: Sequence[Motion], names: Sequence[str] | None = 
                 f"style clips must be Motions, got {type(motion).__name__} (elastyle.read_bvh returns (motion, "
                 "layout): pass its motion)"
             )
-    for index, motion in enumerate(motions):
-        check_finite_clip(
-            motion, names[index] if names is not None and index < len(names) else f"style{index}"
-        )
