@@ -474,7 +474,8 @@ def test_other_exports_of_the_models_skeleton_transfer_as_it_does(
     """Joints listed in another order, or a rig written in +Z-up axes (every bone and joint frame turned),
     alone or with a dropped root and extra joints: transferred on the model's joints exactly as the dataset's
     own clips are; from files, written back in the file's own order and axes, strength 0 the file's content,
-    and `eval` reads them on the model's joints."""
+    the style's reading said also when its library comes from the cache, and `eval` reads them on the
+    model's joints."""
     from elastyle.pipeline import transfer
 
     def exported(motion: Motion) -> Motion:
@@ -507,6 +508,8 @@ def test_other_exports_of_the_models_skeleton_transfer_as_it_does(
             "transfer", str(content), "--style", str(style_file), "-o", str(target), "--strength", strength
         )
         assert done.returncode == 0, done.stderr
+        # how the style file is read is said on both runs, the second one's library from the cache
+        assert f"note: {style_file}: " in done.stderr, done.stderr
     given, written = read_bvh(content)[0], read_bvh(out)[0]
     assert written.skeleton.names == given.skeleton.names
     np.testing.assert_allclose(written.skeleton.offsets, given.skeleton.offsets, atol=1e-5)  # its own axes

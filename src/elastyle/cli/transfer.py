@@ -186,14 +186,18 @@ def run_transfer(args: argparse.Namespace) -> int:
         check_output_path(args.explain, force=args.force, inputs=(*_inputs(args), *map(str, targets)))
     model = load_model(args.model)
 
-    def check(clip: ClipRef, motion: Motion) -> None:
-        note = model.check_clip(motion, clip.name)  # how a style clip is read, as a content's is said
+    def check(clip: ClipRef, motion: Motion) -> list[tuple[int, str]]:
+        """How a style clip is read, as a content's is said: its notes (logging level, text)."""
+        notes = []
+        note = model.check_clip(motion, clip.name)
         if note is not None:
-            log.warning("%s", note)
+            notes.append((logging.WARNING, note))
         if abs(motion.fps - model.fps) > 1e-6:
-            log.info(
-                "note: %s is %.6g fps, resampled to the model's %.6g fps", clip.name, motion.fps, model.fps
+            resampled = (
+                f"note: {clip.name} is {motion.fps:.6g} fps, resampled to the model's {model.fps:.6g} fps"
             )
+            notes.append((logging.INFO, resampled))
+        return notes
 
     def library(specs: list[str]) -> StyleLibrary:
         return load_library(

@@ -57,8 +57,9 @@ def model_fingerprint(model: StyleModel) -> str:
 # 2: one BLAS thread; 3: action descriptors; 4: their ground by nearest sample; 5: clips at the model's size; 6: the root path
 # smoothed to the clip's ends (`core.smoothing.smooth_path`: the latents near its ends change); 7: clips standing
 # along +Z read turned to +Y up (`core.up`), the reading's --up in the key; 8: a clip read under other joint names
-# mirrored by the model's names (`steps.library`)
-CACHE_VERSION = 8
+# mirrored by the model's names (`steps.library`); 9: the clips' reading notes kept, said again on a hit
+CACHE_VERSION = 9
+Note = tuple[int, str]  # a logging level and the text said at it
 
 
 def library_key(
@@ -79,11 +80,13 @@ def load_library(
     clips: list[ClipRef],
     mirror_style: bool,
     use_cache: bool = True,
-    check: Callable[[ClipRef, Motion], None] | None = None,
+    check: Callable[[ClipRef, Motion], list[Note]] | None = None,
     reverse_style: bool = False,
 ) -> StyleLibrary:
     """The encoded library of `clips`, from the cache when it holds them, else read, checked by `check`
-    (which raises for a clip that cannot be used), encoded and cached."""
+    (which raises for a clip that cannot be used, and returns the notes on how each clip is read: another
+    naming, turned axes, another frame rate), encoded and cached. The notes are logged either way: a
+    library from the cache says them again."""
     path = cache_folder() / f"{library_key(model, clips, mirror_style, reverse_style)}.npz"
     if use_cache and path.exists():
         try:
@@ -96,19 +99,20 @@ def load_library(
                 names = [str(n) for n in archive["names"]]
                 spans = _spans(archive["clip_starts"], len(latents))
                 backwards = [bool(b) for b in archive["backwards"]] if "backwards" in archive else None
+                notes = list(zip(archive["note_levels"].tolist(), archive["notes"].tolist()))
                 library = StyleLibrary.of_latents(
                     names, [bool(m) for m in archive["mirrored"]], [latents[a:b] for a, b in spans],
                     [actions[a:b] for a, b in spans], backwards,
                 )  # fmt: skip
             log.debug("style library from cache %s", path)
+            _say(notes)
             os.utime(path)  # recently used: kept longest when the cache is pruned
             return library
         except Exception:  # empty, cut short or garbled in any way: only a cache, so a miss
             log.debug("unreadable cache entry %s: encoding again", path)
     motions = [clip.read()[0] for clip in clips]
-    for clip, motion in zip(clips, motions):
-        if check is not None:
-            check(clip, motion)
+    notes = [note for clip, motion in zip(clips, motions) for note in (check(clip, motion) if check else [])]
+    _say(notes)
     library = prepare_style(model, motions, [c.name for c in clips], mirror_style, reverse_style)
     if use_cache:
         try:
@@ -120,12 +124,19 @@ def load_library(
                 buffer, latents=library.latents, actions=library.actions, names=np.array(library.names),
                 mirrored=np.array(library.mirrored), clip_starts=library.clip_starts,
                 backwards=np.array(library.backwards, dtype=bool),
+                note_levels=np.array([level for level, _ in notes], dtype=np.int64),
+                notes=np.array([text for _, text in notes], dtype=str),
             )  # fmt: skip
             write_bytes_atomic(path, buffer.getvalue(), force=True)
             prune_cache(path.parent, cache_limit_bytes(), keep=path)
         except (OSError, OutputError) as error:  # a read-only home is no reason to fail a transfer
             log.debug("cannot cache the style library: %s", error)
     return library
+
+
+def _say(notes: list[Note]) -> None:
+    for level, text in notes:
+        log.log(level, "%s", text)
 
 
 def prune_cache(folder: Path, limit_bytes: int, keep: Path | None = None) -> None:
