@@ -253,3 +253,30 @@ def test_resuming_on_other_clips_says_so(trained, tmp_path: Path, data_path: Pat
               resume=str(path) + ".ckpt", progress=False)  # fmt: skip
     assert any("was trained on" in r.message and "these are" in r.message for r in caplog.records)
     assert any("wrote" in r.message and "after 300 steps" in r.message for r in caplog.records)
+
+
+def test_a_resumed_cosine_schedule_goes_on_from_its_checkpoints_rate() -> None:
+    """Resumed with the budget it had, a run decays its learning rate as an uninterrupted run does; with a
+    larger budget the rate falls on from where the checkpoint left it to the floor at the new end (before,
+    it rose again at the resume); after its budget was spent, at the floor."""
+    from elastyle.training.config import TrainConfig
+    from elastyle.training.loop import spent_fraction
+    from elastyle.training.rate import FLOOR, LearningRate
+
+    fresh = LearningRate(1e-3, cosine=True)
+    same = LearningRate(1e-3, True, reached=0.4, resumed_at=0.4)
+    for fraction in (0.4, 0.7, 1.0):
+        assert same.at(fraction) == pytest.approx(fresh.at(fraction))
+    # 400 of 1000 steps done, resumed with a budget of 2000: the rate at the resume is the checkpoint's,
+    # then it falls without rising to the floor at the new end
+    checkpoint, longer = TrainConfig(steps=1000), TrainConfig(steps=2000)
+    larger = LearningRate(1e-3, True, spent_fraction(checkpoint, 400, 0.0), spent_fraction(longer, 400, 0.0))
+    rates = [larger.at(spent_fraction(longer, step, 0.0)) for step in range(400, 2001, 100)]
+    assert rates[0] == pytest.approx(fresh.at(0.4))
+    assert all(later <= earlier for earlier, later in zip(rates, rates[1:]))
+    assert rates[-1] == pytest.approx(FLOOR * 1e-3)
+    spent = LearningRate(1e-3, True, reached=1.0, resumed_at=0.5)
+    assert spent.at(0.5) == spent.at(0.9) == pytest.approx(FLOOR * 1e-3)
+    assert LearningRate(1e-3, cosine=False).at(0.7) == 1e-3
+    minutes = TrainConfig(minutes=10)
+    assert spent_fraction(minutes, 0, 300.0) == pytest.approx(0.5)

@@ -35,6 +35,7 @@ from elastyle.model.depth import DEFAULT_WARN_CM, calibrate
 from elastyle.model.features import FeatureSpec
 from elastyle.model.file import StyleModel, save_model
 from elastyle.training.config import TrainConfig
+from elastyle.training.rate import LearningRate
 from elastyle.training.windows import draw_speed, perturb_windows, sample_windows
 
 log = logging.getLogger(__name__)
@@ -103,7 +104,12 @@ def _checkpoint(path: str) -> dict[str, Any]:
 def checkpoint_config(path: str) -> TrainConfig | None:
     """The settings a checkpoint's training ran with (its budget too), or None for a checkpoint written
     before they were recorded; a one-line `ElastyleError` for a file that is not a checkpoint."""
-    recorded = _checkpoint(path).get("train_config")
+    return _recorded_config(_checkpoint(path))
+
+
+def _recorded_config(state: dict[str, Any]) -> TrainConfig | None:
+    """The settings recorded in a checkpoint's state (`checkpoint_config`)."""
+    recorded = state.get("train_config")
     if not isinstance(recorded, str):
         return None
     values = json.loads(recorded)
@@ -111,6 +117,15 @@ def checkpoint_config(path: str) -> TrainConfig | None:
     model = ModelConfig(**values.pop("model"))
     values["speed_range"] = tuple(values.get("speed_range", TrainConfig.speed_range))
     return TrainConfig(model=model, **{name: value for name, value in values.items() if name in known})
+
+
+def spent_fraction(config: TrainConfig, step: int, elapsed_s: float) -> float:
+    """The share of `config`'s budget spent at `step` after `elapsed_s` seconds of training (its steps,
+    else its minutes)."""
+    if config.steps is not None:
+        return step / config.steps if config.steps > 0 else 1.0
+    budget_s = (config.minutes or 0.0) * 60
+    return elapsed_s / budget_s if budget_s > 0 else 1.0
 
 
 def train(
@@ -199,6 +214,7 @@ def train(
     optimizer = torch.optim.Adam(network.parameters(), lr=config.learning_rate)
     step = resumed_at = 0
     elapsed_before = 0.0
+    reached = None  # for a resumed run, the share of its checkpoint's own budget spent
     checkpoint_path = Path(str(output) + ".ckpt")
     if resume:
         state = _checkpoint(resume)
@@ -214,6 +230,9 @@ def train(
         step = int(state["step"])
         resumed_at = step
         elapsed_before = float(state["elapsed_s"])
+        recorded_config = _recorded_config(state)
+        if recorded_config is not None:
+            reached = spent_fraction(recorded_config, step, elapsed_before)
         rng = np.random.default_rng(config.seed + step)
         log.info("resumed from %s at step %d", resume, step)
         recorded = state.get("clip_names")
@@ -227,6 +246,15 @@ def train(
     budget_s = config.minutes * 60 if config.minutes is not None else math.inf
     if config.steps is None and config.minutes is None:
         raise ElastyleError("give a training budget: --minutes or --steps")
+    resumed_fraction = spent_fraction(config, step, elapsed_before)
+    rates = LearningRate(
+        config.learning_rate,
+        config.lr_schedule == "cosine",
+        resumed_fraction if reached is None else reached,
+        resumed_fraction,
+    )
+    if resume and rates.cosine and rates.schedule_fraction(resumed_fraction) >= 1 and resumed_fraction < 1:
+        log.info("note: %s ended its learning-rate decay: the added budget trains at its floor rate", resume)
     val_batch = (
         torch.from_numpy(sample_windows(val_norm, window, 64, np.random.default_rng(1))) if val_norm else None
     )
@@ -256,15 +284,8 @@ def train(
             and elapsed_before + time.perf_counter() - started < budget_s
             and not stop.asked
         ):
-            if config.lr_schedule == "cosine":
-                fraction = (
-                    step / budget_steps
-                    if config.steps
-                    else (elapsed_before + time.perf_counter() - started) / budget_s
-                )
-                rate = config.learning_rate * (
-                    0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * min(fraction, 1.0)))
-                )
+            if rates.cosine:
+                rate = rates.at(spent_fraction(config, step, elapsed_before + time.perf_counter() - started))
                 for group in optimizer.param_groups:
                     group["lr"] = rate
             speed = min(draw_speed(rng, config.speed_augment, config.speed_range), longest / window)
