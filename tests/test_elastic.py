@@ -30,21 +30,22 @@ def test_batched_float32_search_agrees_with_float64_loop() -> None:
     valid = [s + k for s, n in zip(starts, clip_lengths) for k in range(n - patch + 1)]
     assert np.flatnonzero(windows.valid).tolist() == valid
     content = rng.standard_normal((100, 8))
-    queries = sample_windows(content, np.arange(0, 80, 7.0), np.full(12, 14.0), patch)
-    index, similarity = windows.best(queries)
+    # spans stretched and squeezed, one running past the content's end (its last frame held)
+    span_starts, span_lengths = (
+        np.arange(0, 84, 7.0),
+        np.array([14.0, 9.5, 12, 17, 11, 14, 13, 8, 15, 12, 14, 30]),
+    )
+    queries = sample_windows(content, span_starts, span_lengths, patch)
+    index, similarity = windows.best(content, span_starts, span_lengths)
     for q, query in enumerate(queries):
         expected, expected_similarity = _brute_force_best(library, valid, query)
         assert index[q] == expected
         assert abs(similarity[q] - expected_similarity) < 1e-5
-    # every block size, including ones that do not divide the patch, gives the same similarities
-    reference = windows.similarities(queries, block=1)
-    for block in (2, 5, 7, 12):
-        assert np.allclose(windows.similarities(queries, block=block), reference, atol=1e-5)
-    # small chunks of windows, block columns built per chunk instead of cached: the same again
-    windows.CHUNK_BYTES, windows.MIN_CHUNK_WINDOWS, windows.BLOCKED_BYTES = 1, 10, 0
-    for block in (1, 5, 12):
-        assert np.allclose(windows.similarities(queries, block=block), reference, atol=1e-5)
-    assert windows.best(queries)[0].tolist() == index.tolist()
+    # small groups of queries and small chunks of windows give the same similarities
+    reference = windows.similarities(content, span_starts, span_lengths)
+    windows.CHUNK_BYTES, windows.MIN_CHUNK_WINDOWS, windows.GROUP_ROWS = 1, 10, 1
+    assert np.allclose(windows.similarities(content, span_starts, span_lengths), reference, atol=1e-5)
+    assert windows.best(content, span_starts, span_lengths)[0].tolist() == index.tolist()
 
 
 def test_windows_compared_on_every_other_frame() -> None:
@@ -53,20 +54,19 @@ def test_windows_compared_on_every_other_frame() -> None:
     library = rng.standard_normal((sum(clip_lengths), 8))
     starts = np.cumsum([0] + clip_lengths[:-1])
     content = rng.standard_normal((100, 8))
+    span_starts, span_lengths = np.arange(0, 80, 7.0), np.full(12, 14.0)
     for patch in (12, 13):  # compared frames 0, 2, .., 10 and 0, 2, .., 12
         windows = StyleWindows(library, starts, patch, frame_step=2)
         valid = np.flatnonzero(windows.valid).tolist()
-        queries = sample_windows(content, np.arange(0, 80, 7.0), np.full(12, 14.0), patch)
-        index, similarity = windows.best(queries)
+        queries = sample_windows(content, span_starts, span_lengths, patch)
+        index, similarity = windows.best(content, span_starts, span_lengths)
         for q, query in enumerate(queries):
             expected, expected_similarity = _brute_force_best(library, valid, query, step=2)
             assert index[q] == expected
             assert abs(similarity[q] - expected_similarity) < 1e-5
-        reference = windows.similarities(queries, block=1)
-        for block in (2, 3, windows.compared_frames):
-            assert np.allclose(windows.similarities(queries, block=block), reference, atol=1e-5)
-        windows.CHUNK_BYTES, windows.MIN_CHUNK_WINDOWS, windows.BLOCKED_BYTES = 1, 10, 0
-        assert np.allclose(windows.similarities(queries, block=2), reference, atol=1e-5)
+        reference = windows.similarities(content, span_starts, span_lengths)
+        windows.CHUNK_BYTES, windows.MIN_CHUNK_WINDOWS, windows.GROUP_ROWS = 1, 10, 1
+        assert np.allclose(windows.similarities(content, span_starts, span_lengths), reference, atol=1e-5)
 
 
 def test_sequential_search_consumes_the_content_at_the_matched_stretch() -> None:
@@ -138,6 +138,8 @@ def test_side_guard_reads_each_window_of_a_real_library(dataset_clips) -> None: 
     spans = np.tile([0.0, 50.0, 0.0], (len(library.actions), 1))  # no window is anywhere near
     only_mirrored = guard._replace(content=spans, mirrored=np.ones_like(guard.mirrored))
     windows = library.windows(30, 0.1, 2.0)
-    queries = windows.frames[None, :30]
+    frames, start, length = windows.frames, [0.0], [30.0]  # the library's first window as the query
     excluded = only_mirrored.excluded(spans[:1])  # one query whose span's mean sides are those
-    assert np.array_equal(windows.best(queries, excluded)[0], windows.best(queries)[0])
+    assert np.array_equal(
+        windows.best(frames, start, length, excluded)[0], windows.best(frames, start, length)[0]
+    )

@@ -20,7 +20,7 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from elastyle.core.resample import interpolate_rows
+from elastyle.core.resample import bracket, interpolate_rows
 from elastyle.types import BoolArray, Float32Array, FloatArray, IntArray
 
 
@@ -69,15 +69,16 @@ def mean_gap(content: FloatArray, library: FloatArray, patches: list[Patch], pat
 
 
 class StyleWindows:
-    """Every L-frame window of a whitened style library (stride 1), for cosine similarity.
+    """Every L-frame window of a whitened style library (stride 1), for cosine similarity with content spans.
 
-    The windows are never materialised (an (N, L*Z) matrix would be L times the library). A window's dot
-    product with a query is a sum over blocks of B frames: query block b (B*Z values) times the library's
-    B frames from n + bB on. With the library stored as overlapping B-frame columns (B*Z, T_s), one matrix
-    product of the query blocks with those columns, then a sum over ceil(L/B) shifted views, gives every
-    window at once. B trades the product's inner size (B*Z, larger runs nearer the machine's peak) against its rows
-    (Q * ceil(L/B)): it is chosen per call from the number of queries. The library is processed in chunks,
-    so the products stay a few megabytes.
+    A query is a content span read at L evenly spaced positions, each between two content frames (t and
+    t + 1, weights 1 - a and a). Its dot product with window n is therefore a weighted sum, over the
+    compared frames f, of the products of those two content frames with library frame n + f. So a call
+    multiplies the content frames its queries read (r rows, a few more than the longest span) with the
+    library once, G (r, N), and each query gathers its 2 Lc weighted rows of G, each shifted by its f: the
+    arithmetic of r content frames against the library instead of Q L' (every query's every frame), and
+    no window is materialised (an (N, L*Z) matrix would be L times the library). Queries go in groups of
+    nearby spans and the library in chunks of windows, so the products stay a few megabytes.
 
     frame_step: windows are compared on every `frame_step`-th frame of theirs (frames n, n + s, ... of
     window n; the queries' frames 0, s, ...): a step of 2 halves the arithmetic, but among near-equal
@@ -86,10 +87,9 @@ class StyleWindows:
     valid: (N,) False for windows that would cross from one library clip into the next.
     """
 
-    PRODUCT_ROWS = 96  # the block size is the smallest giving at most this many query-block rows
-    CHUNK_BYTES = 4 << 20  # products per chunk of windows ...
+    CHUNK_BYTES = 4 << 20  # products and gathered rows per chunk of windows ...
     MIN_CHUNK_WINDOWS = 256  # ... but at least this many windows per chunk
-    BLOCKED_BYTES = 64 << 20  # the largest block-row copy of the library kept in memory
+    GROUP_ROWS = 1024  # queries are taken in groups of at most this many gathered rows (2 per frame)
 
     def __init__(
         self, white_library: FloatArray, clip_starts: IntArray, patch_frames: int, frame_step: int = 1
@@ -98,6 +98,7 @@ class StyleWindows:
         self.patch_frames = patch_frames
         self.frame_step = frame_step
         self.frames: Float32Array = np.ascontiguousarray(white_library, dtype=np.float32)  # (T_s, Z)
+        self._columns: Float32Array = np.ascontiguousarray(self.frames.T)  # (Z, T_s)
         self.num_windows = max(total - patch_frames + 1, 0)
         energy = np.sum(white_library.astype(np.float64) ** 2, axis=1)  # (T_s,)
         norms = np.sqrt(
@@ -110,113 +111,106 @@ class StyleWindows:
             valid[start : max(start, end - patch_frames + 1)] = True
         self.valid: BoolArray = valid
         self._invalid: BoolArray = ~valid
-        self._blocked: dict[int, Float32Array] = {}
 
     @property
     def compared_frames(self) -> int:
         """Frames of a window that are compared: every `frame_step`-th of its L."""
         return -(-self.patch_frames // self.frame_step)
 
-    def block_frames(self, num_queries: int) -> int:
-        """Compared frames per block B for a call with this many queries: the fewest giving at most
-        `PRODUCT_ROWS` query-block rows (so many queries get whole windows)."""
-        length = self.compared_frames
-        for block in range(1, length + 1):
-            if num_queries * -(-length // block) <= self.PRODUCT_ROWS:
-                return block
-        return length
-
-    def block_columns(self, block: int, first: int, stop: int) -> Float32Array:
-        """Library rows [first, stop) as B-frame blocks, one per column: column n holds frames n, n + s, ..
-        n + s(B - 1) for the frame step s (B*Z, stop - first), zeros past the library's end (columns make
-        the products' small-row GEMM faster than rows would). The whole copy is cached when it is at most
-        `BLOCKED_BYTES`; otherwise columns are built per call (for many queries, whose product costs more)."""
-        if block * self.frames.nbytes > self.BLOCKED_BYTES:
-            return self._build_columns(block, first, stop)
-        if block not in self._blocked:
-            self._blocked[block] = self._build_columns(block, 0, self.frames.shape[0])
-        return self._blocked[block][:, first:stop]
-
-    def _build_columns(self, block: int, first: int, stop: int) -> Float32Array:
-        total, width = self.frames.shape
-        reach = self.frame_step * (block - 1) + 1  # library frames a block spans
-        frames = self.frames[first : min(stop + reach - 1, total)]
-        padding = stop + reach - 1 - first - frames.shape[0]
-        if padding > 0:
-            frames = np.concatenate([frames, np.zeros((padding, width), np.float32)])
-        rows = np.lib.stride_tricks.sliding_window_view(frames, reach, axis=0)  # (stop - first, Z, reach)
-        rows = rows[:, :, :: self.frame_step]  # (stop - first, Z, B)
-        return np.ascontiguousarray(rows.transpose(2, 1, 0)).reshape(block * width, stop - first)
-
     def _similarity_chunks(
-        self, queries: FloatArray, block: int | None, excluded: Exclusion | None = None
-    ) -> Iterator[tuple[int, int, Float32Array]]:
-        """(first, last, cosine similarity (Q, last - first) of the queries with windows first..last-1);
-        -inf where a window is invalid or `excluded` (first, last) marks it for a query."""
-        queries = queries[:, :: self.frame_step]  # the compared frames
-        count, length, width = queries.shape
-        block = block or self.block_frames(count)
-        num_blocks = -(-length // block)
-        # unit queries, with zero frames padding the last block
-        unit = np.zeros((count, num_blocks * block, width), dtype=np.float32)
-        unit[:, :length] = queries
-        unit /= np.maximum(np.sqrt(np.einsum("qfz,qfz->q", unit, unit)), 1e-8)[:, None, None]
-        query_blocks = unit.reshape(count * num_blocks, block * width)
-        shift = block * self.frame_step  # library frames from one block of a window to its next
-        span = (num_blocks - 1) * shift  # window n's last block starts at library frame n + span
-        # the products, and block columns built per chunk, stay within CHUNK_BYTES each
-        chunk = max(self.MIN_CHUNK_WINDOWS, self.CHUNK_BYTES // (4 * max(count * num_blocks, block * width)))
-        for first in range(0, self.num_windows, chunk):
-            last = min(first + chunk, self.num_windows)
-            columns = self.block_columns(block, first, last + span)  # (B*Z, last - first + span)
-            products = query_blocks @ columns  # (Q * num_blocks, last - first + span)
-            # window n's block b is library row n + bsB: a strided view (Q, num_blocks, n) of the products
-            item, row = products.itemsize, products.shape[1]
-            shifted = np.ndarray(  # as_strided's view without its Python overhead (tens of us per call)
-                (count, num_blocks, last - first),
-                products.dtype,
-                buffer=products,
-                strides=(num_blocks * row * item, (row + shift) * item, item),
-            )
-            dots = shifted.sum(axis=1)  # (Q, last - first), a new array
-            dots *= self.inverse_norms[first:last]
-            np.copyto(dots, np.float32(-np.inf), where=self._invalid[first:last])
-            if excluded is not None:
-                np.copyto(dots, np.float32(-np.inf), where=excluded(first, last))
-            yield first, last, dots
+        self, content: FloatArray, starts: npt.ArrayLike, lengths: npt.ArrayLike, excluded: Exclusion | None
+    ) -> Iterator[tuple[IntArray, int, int, Float32Array]]:
+        """(queries (q,) of a group, first, last, cosine similarity (q, last - first) of those queries with
+        windows first..last-1); -inf where a window is invalid or `excluded` (first, last, queries) marks it."""
+        starts, lengths = (np.atleast_1d(np.asarray(a, dtype=np.float64)) for a in (starts, lengths))
+        compared = np.arange(self.compared_frames) * self.frame_step  # (Lc,) the compared frames f
+        positions = starts[:, None] + (compared + 0.5) * (lengths[:, None] / self.patch_frames) - 0.5
+        lower, upper, weight = bracket(positions.ravel(), content.shape[0])  # (Q * Lc,) each
+        lower, upper = lower.reshape(positions.shape), upper.reshape(positions.shape)  # (Q, Lc)
+        weight = weight.reshape(positions.shape)
+        span = int(compared[-1])  # window n's last compared frame is library frame n + span
+        group = max(1, self.GROUP_ROWS // (2 * len(compared)))
+        for begin in range(0, len(starts), group):
+            queries = np.arange(begin, min(begin + group, len(starts)))
+            low, high = lower[queries], upper[queries]  # (q, Lc)
+            first_row = int(low.min())
+            rows = content[first_row : int(high.max()) + 1].astype(np.float32)  # (r, Z) the frames read
+            share = weight[queries].astype(np.float32)  # (q, Lc)
+            low, high = low - first_row, high - first_row  # rows of `rows`
+            # each query's length: |(1 - a) c_t + a c_u|^2 over its frames, from the frames' products (r, r)
+            frame_products = rows @ rows.T
+            squared = np.sum(
+                (1 - share) ** 2 * frame_products[low, low]
+                + 2 * share * (1 - share) * frame_products[low, high]
+                + share**2 * frame_products[high, high],
+                axis=1,
+            )  # (q,)
+            inverse_lengths = 1 / np.maximum(np.sqrt(squared), 1e-8)  # (q,)
+            gathered_rows = np.concatenate([low, high], axis=1)  # (q, 2 Lc) rows of the products
+            offsets = np.concatenate([compared, compared])  # (2 Lc,) each row's shift
+            weights = np.concatenate([1 - share, share], axis=1)[:, None, :]  # (q, 1, 2 Lc)
+            per_window = 4 * max(len(queries) * 2 * len(compared), len(rows))
+            chunk = max(self.MIN_CHUNK_WINDOWS, self.CHUNK_BYTES // per_window)
+            for first in range(0, self.num_windows, chunk):
+                last = min(first + chunk, self.num_windows)
+                products = rows @ self._columns[:, first : last + span]  # (r, last - first + span)
+                item, row = products.itemsize, products.shape[1]
+                shifted = np.ndarray(  # [t, f, n] = products[t, f + n] (as_strided without its overhead)
+                    (len(rows), span + 1, last - first), products.dtype, buffer=products,
+                    strides=(row * item, item, item),
+                )  # fmt: skip
+                dots = (weights @ shifted[gathered_rows, offsets])[:, 0]  # (q, last - first)
+                dots *= inverse_lengths[:, None]
+                dots *= self.inverse_norms[first:last]
+                np.copyto(dots, np.float32(-np.inf), where=self._invalid[first:last])
+                if excluded is not None:
+                    np.copyto(dots, np.float32(-np.inf), where=excluded(first, last, queries))
+                yield queries, first, last, dots
 
-    def similarities(self, queries: FloatArray, block: int | None = None) -> Float32Array:
-        """Cosine similarity (Q, N) of queries (Q, L, Z) with every window (over the compared frames); -inf
-        where a window is invalid.
+    def similarities(
+        self, content: FloatArray, starts: npt.ArrayLike, lengths: npt.ArrayLike
+    ) -> Float32Array:
+        """Cosine similarity (Q, N) of the content (T, Z) spans [start, start + length) (Q,), each read at L
+        frames (`sample_windows`), with every window (over the compared frames); -inf where a window is
+        invalid."""
+        count = len(np.atleast_1d(starts))
+        similarity = np.full((count, self.num_windows), -np.inf, dtype=np.float32)
+        for queries, first, last, dots in self._similarity_chunks(content, starts, lengths, None):
+            similarity[queries, first:last] = dots
+        return similarity
 
-        block: compared frames per block B (default: `block_frames`); any B gives the same result.
-        """
-        chunks = [dots for _, _, dots in self._similarity_chunks(queries, block)]
-        return np.concatenate(chunks, axis=1) if chunks else np.zeros((len(queries), 0), np.float32)
-
-    def best(self, queries: FloatArray, excluded: Exclusion | None = None) -> tuple[IntArray, FloatArray]:
-        """For queries (Q, L, Z): the best window index (Q,) and its cosine similarity (Q,), among the
-        windows `excluded` (first, last) -> (Q, last - first) does not mark for each query.
+    def best(
+        self,
+        content: FloatArray,
+        starts: npt.ArrayLike,
+        lengths: npt.ArrayLike,
+        excluded: Exclusion | None = None,
+    ) -> tuple[IntArray, FloatArray]:
+        """For the content (T, Z) spans [start, start + length) (Q,), each read at L frames: the best window
+        index (Q,) and its cosine similarity (Q,), among the windows `excluded` (first, last, queries (q,))
+        -> (q, last - first) does not mark for each query.
 
         Reduced chunk by chunk, so many queries against a long library never hold a (Q, N) matrix.
         """
-        index = np.zeros(len(queries), dtype=np.int64)
-        value = np.full(len(queries), -np.inf)
-        rows = np.arange(len(queries))
-        for first, _, dots in self._similarity_chunks(queries, None, excluded):
+        count = len(np.atleast_1d(starts))
+        index = np.zeros(count, dtype=np.int64)
+        value = np.full(count, -np.inf)
+        for queries, first, _, dots in self._similarity_chunks(content, starts, lengths, excluded):
             local = np.argmax(dots, axis=1)
-            local_value = dots[rows, local]
-            better = local_value > value
-            index[better] = first + local[better]
-            value[better] = local_value[better]
+            local_value = dots[np.arange(len(queries)), local]
+            better = local_value > value[queries]
+            index[queries[better]] = first + local[better]
+            value[queries[better]] = local_value[better]
         unmatched = ~np.isfinite(value)  # every window excluded for these queries: the best of all instead
         if excluded is not None and np.any(unmatched):
-            index[unmatched], value[unmatched] = self.best(queries[unmatched])
+            index[unmatched], value[unmatched] = self.best(
+                content, np.atleast_1d(starts)[unmatched], np.atleast_1d(lengths)[unmatched]
+            )
         return index, value
 
 
-# (first, last) -> (Q, last - first): the windows a query may not take
-Exclusion = Callable[[int, int], BoolArray]
+# (first, last, queries (q,)) -> (q, last - first): the windows each of those queries may not take
+Exclusion = Callable[[int, int, IntArray], BoolArray]
 # a mirrored window whose hands' sidedness differs from the content's by more (legs) is not taken
 SIDE_CHANGE_LEGS = 0.3
 
@@ -237,37 +231,30 @@ class SideGuard(NamedTuple):
     mirrored: BoolArray
 
     def excluded(self, spans: FloatArray) -> Exclusion:
-        """The exclusion for Q queries whose content spans have the mean sides spans (Q, 3) (`sampled`)."""
-        span_energy = np.sum(spans**2, axis=1)[:, None]  # (Q, 1)
+        """The exclusion for Q queries whose content spans have the mean sides spans (Q, 3)."""
+        # |s - w|^2 > d^2  <=>  |w|^2 - 2 s.w > d^2 - |s|^2: one small product per chunk and a comparison
+        limits = SIDE_CHANGE_LEGS**2 - np.einsum("qk,qk->q", spans, spans)  # (Q,)
 
-        def chunk(first: int, last: int) -> BoolArray:
+        def chunk(first: int, last: int, queries: IntArray) -> BoolArray:
             mirrored = self.mirrored[first:last]
             if not np.any(mirrored):
-                return np.zeros((len(spans), last - first), dtype=bool)
+                return np.zeros((len(queries), last - first), dtype=bool)
             sides = self.windows[first:last]  # (n, 3)
-            # squared distances |s - w|^2 of every query's span to every window, as one small product
-            gaps = span_energy + np.sum(sides**2, axis=1) - 2 * spans @ sides.T  # (Q, n)
-            return (gaps > SIDE_CHANGE_LEGS**2) & mirrored
+            gaps = spans[queries] @ (-2 * sides.T)  # (q, n)
+            gaps += np.einsum("nk,nk->n", sides, sides)
+            return (gaps > limits[queries, None]) & mirrored
 
         return chunk
 
 
-def sampled(
-    frames: FloatArray, guard: SideGuard | None, starts: npt.ArrayLike, lengths: npt.ArrayLike, count: int
-) -> tuple[FloatArray, Exclusion | None]:
-    """The queries (Q, count, W) over content spans [start, start + length) (Q,) of the search's content
-    frames (T, W), and the guard's exclusion for them (None without a guard). frames: the content's
-    (`with_sides`), with the guard's sides beside them: both are read at the same positions at once."""
+def guard_exclusion(
+    guard: SideGuard | None, starts: npt.ArrayLike, lengths: npt.ArrayLike, count: int
+) -> Exclusion | None:
+    """The guard's exclusion for content spans [start, start + length) (Q,) read at `count` frames, from
+    each span's mean sides; None without a guard."""
     if guard is None:
-        return sample_windows(frames, starts, lengths, count), None
-    both = sample_windows(frames, starts, lengths, count)  # (Q, count, W + 3)
-    width = frames.shape[1] - guard.content.shape[1]
-    return both[:, :, :width], guard.excluded(both[:, :, width:].mean(axis=1))
-
-
-def with_sides(white_content: FloatArray, guard: SideGuard | None) -> FloatArray:
-    """The search's content frames (T, W), with the guard's sides (T, 3) beside them for `sampled`."""
-    return white_content if guard is None else np.concatenate([white_content, guard.content], axis=1)
+        return None
+    return guard.excluded(sample_windows(guard.content, starts, lengths, count).mean(axis=1))
 
 
 STILL_SHARE = 0.9  # a patch whose content frames are still for at least this share is read unstretched
@@ -286,16 +273,21 @@ def search_sequential(
     idle has no pace to take (every stretch of it looks alike, so the best match's would be chance)."""
     patch_frames = windows.patch_frames
     num_frames = white_content.shape[0]
-    frames = with_sides(white_content, guard)
     patches: list[Patch] = []
+    still_before = np.concatenate([[0], np.cumsum(still)]).tolist() if still is not None else None
     cursor = 0.0
     while cursor < num_frames or not patches:
         lengths = source_lengths
-        span = still[int(cursor) : int(cursor) + patch_frames] if still is not None else np.zeros(0, bool)
-        if len(span) and np.mean(span) >= STILL_SHARE:
-            lengths = np.array([patch_frames])
+        first, end = (
+            int(cursor),
+            min(int(cursor) + patch_frames, num_frames),
+        )  # the patch's frames unstretched
+        if still_before is not None and end > first:
+            if (still_before[end] - still_before[first]) / (end - first) >= STILL_SHARE:
+                lengths = np.array([patch_frames])
         starts = np.full(len(lengths), cursor)
-        index, similarity = windows.best(*sampled(frames, guard, starts, lengths, patch_frames))
+        excluded = guard_exclusion(guard, starts, lengths, patch_frames)
+        index, similarity = windows.best(white_content, starts, lengths, excluded)
         choice = int(np.argmax(similarity))
         patches.append(Patch(cursor, float(lengths[choice]), int(index[choice]), float(similarity[choice])))
         cursor += float(lengths[choice])
@@ -315,8 +307,9 @@ def search_fixed(
     centres = (np.arange(num_patches) + 0.5) * patch_frames  # (P,)
     lengths = np.tile(source_lengths, num_patches)  # (P * S,)
     starts = np.repeat(centres, len(source_lengths)) - lengths / 2
-    queries, excluded = sampled(with_sides(white_content, guard), guard, starts, lengths, patch_frames)
-    index, similarity = (a.reshape(num_patches, -1) for a in windows.best(queries, excluded))  # (P, S)
+    excluded = guard_exclusion(guard, starts, lengths, patch_frames)
+    found = windows.best(white_content, starts, lengths, excluded)
+    index, similarity = (a.reshape(num_patches, -1) for a in found)  # (P, S)
     choice = np.argmax(similarity, axis=1)
     # placed at the content's grid: consumes exactly L content frames whatever the stretch
     return [
@@ -336,6 +329,6 @@ def half_shifted(
     if not spans:
         return []
     starts, lengths = np.array(spans).T
-    frames = with_sides(white_content, guard)
-    index, similarity = windows.best(*sampled(frames, guard, starts, lengths, windows.patch_frames))
+    excluded = guard_exclusion(guard, starts, lengths, windows.patch_frames)
+    index, similarity = windows.best(white_content, starts, lengths, excluded)
     return [Patch(s, n, int(i), float(v)) for (s, n), i, v in zip(spans, index, similarity)]
