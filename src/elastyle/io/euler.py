@@ -43,9 +43,10 @@ def rotvec_to_euler(order: str, rotvecs: FloatArray) -> FloatArray:
     if len({first, second, third}) != 3:
         from scipy.spatial.transform import Rotation  # imported only here: it takes about 0.7 s
 
-        return (
-            Rotation.from_rotvec(rotvecs.reshape(-1, 3)).as_euler(order, degrees=True).reshape(rotvecs.shape)
-        )
+        with warnings.catch_warnings():  # a rest pose is at gimbal lock for these orders: the third angle 0
+            warnings.simplefilter("ignore", UserWarning)  # is a right solution, not worth a warning per file
+            rotation = Rotation.from_rotvec(rotvecs.reshape(-1, 3))
+            return rotation.as_euler(order, degrees=True).reshape(rotvecs.shape)
     matrix = to_matrix(rotvecs)
     parity = 1.0 if (first, second, third) in ((0, 1, 2), (1, 2, 0), (2, 0, 1)) else -1.0
     sine = np.clip(parity * matrix[..., first, third], -1.0, 1.0)
