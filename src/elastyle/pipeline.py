@@ -209,17 +209,23 @@ def transfer(
     if "legs" in config.kept_parts:  # legs performed as in the content set its pace, as kept legs always do
         log_rate = np.zeros_like(log_rate)
     content_time = output_content_times(grid, log_rate)  # (T_out,) content frames
-    # decode on the output's timeline, the root path read at the same content times
-    root_out = root.sample(content_time)
-    styled = _decoded(model, latents, grid, content_time, root_out, config)
-    # parts styled by another library: their own track, decoded on the same timeline, joint by joint
+    # parts styled by another library: their own track, on the same timeline, joint by joint
     part_tracks = []  # (joints, track) of each part styled by another library
+    part_latents = []
     for joints, library in by_part:
         track = style_track(content_latents, actions, library, grid, config, fps, columns, still)
-        part_latents, _ = mix_tracks(content_on_grid, strength, [track], [np.ones_like(grid)])
-        part = _decoded(model, part_latents, grid, content_time, root_out, config)
-        styled = styled.with_joints(part, joints)
+        part_latents.append(mix_tracks(content_on_grid, strength, [track], [np.ones_like(grid)])[0])
         part_tracks.append((joints, track))
+    # decode on the output's timeline, the root path read at the same content times: the styled latents,
+    # each part's, and for residual decoding the content's own (the model's reading of it), in one pass
+    residual = config.decode != "plain"
+    root_out = root.sample(content_time)
+    styled, *decoded = _decoded(
+        model, [latents, *part_latents, *([content_on_grid] if residual else [])], grid, content_time,
+        root_out, config,
+    )  # fmt: skip
+    for (joints, _), part in zip(part_tracks, decoded):
+        styled = styled.with_joints(part, joints)
     _check_finite(styled, "decoding", content_name)
     positions, content_frames = output_frames(
         content_time, per_model_frame, content.num_frames, config.timing
@@ -233,7 +239,7 @@ def transfer(
         motion = Motion(content.skeleton, styled_at.rotations, styled_at.translations, content.fps)
         clean_share = np.ones_like(strength_out)  # the report's clean-up, whatever the strength
     else:
-        base_at = frames_of(_decoded(model, content_on_grid, grid, content_time, root_out, config), positions)
+        base_at = frames_of(decoded[-1], positions)
         motion = compose_residual(styled_at, base_at, content_at, strength_out, config.residual_smooth_s)
         # the feet planted in full from a small strength on (none at 0, where the output is the content):
         # a clean-up blended in by the strength itself left half-styled strides half pinned, sliding
@@ -272,12 +278,14 @@ def transfer(
                 style_track(content_latents, actions, s, grid, statistics, fps) for s in libraries
             ]
             coloured, _ = mix_tracks(content_on_grid, strength, coloured_tracks, shares)
-            coloured_at = frames_of(
-                _decoded(model, coloured, grid, content_time, root_out, config), positions
-            )
             if base_at is None:  # the statistics' change is to the model's reading
-                base = _decoded(model, content_on_grid, grid, content_time, root_out, config)
+                coloured_decoded, base = _decoded(
+                    model, [coloured, content_on_grid], grid, content_time, root_out, config
+                )
                 reference = frames_of(base, positions)
+            else:
+                [coloured_decoded] = _decoded(model, [coloured], grid, content_time, root_out, config)
+            coloured_at = frames_of(coloured_decoded, positions)
         target = keep_target(content_at, styled_at, reference, keep, kept, strength_out, coloured_at, colour)
         motion = blend_by_strength(motion, target, keep)
         if config.cleanup and (coloured_at is not None or np.any(keep[:, automatic_legs] > 0)):
@@ -342,15 +350,16 @@ def _floor(motion: Motion, content: Motion) -> float | None:
 
 def _decoded(
     model: StyleModel,
-    latents: FloatArray,
+    latents: Sequence[FloatArray],
     grid: FloatArray,
     content_time: FloatArray,
     root: RootPath,
     config: TransferConfig,
-) -> Motion:
-    """Latents (G, Z) on the content-time grid, decoded on the output's timeline (content_time (T_out,)) on
-    the root path read at the same times."""
-    return decode_plain(model, on_output_frames(latents, grid, content_time), root, config.smooth_s)
+) -> list[Motion]:
+    """Latent tracks (G, Z) on the content-time grid, each decoded on the output's timeline (content_time
+    (T_out,)) on the root path read at the same times."""
+    on_output = [on_output_frames(track, grid, content_time) for track in latents]
+    return decode_plain(model, on_output, root, config.smooth_s)
 
 
 def short_content_note(content_name: str, duration_s: float, patch_s: float) -> str:

@@ -185,6 +185,10 @@ class RootPath(NamedTuple):
     def num_frames(self) -> int:
         return int(self.path.shape[0])
 
+    def repeated(self, times: int) -> RootPath:
+        """The path `times` times end to end (T * times frames): several clips decoded on it as one."""
+        return RootPath(*(np.concatenate([values] * times) for values in self))
+
     def sample(self, frame_times: FloatArray) -> RootPath:
         """The path at fractional frame indices (N,), linear between frames and held past the ends."""
         frame_times = np.clip(frame_times, 0.0, self.num_frames - 1)

@@ -16,6 +16,8 @@ frame noise in `base` does not pass into the output while the content's detail d
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from elastyle.core.motion import Motion
@@ -26,10 +28,15 @@ from elastyle.model.file import StyleModel
 from elastyle.types import FloatArray
 
 
-def decode_plain(model: StyleModel, latents: FloatArray, root: RootPath, smooth_s: float) -> Motion:
-    """The report's decoding: latents (T_out, Z) -> features -> a clip on the root path (T_out frames)."""
-    features = model.decode_latents(latents, smooth_s)
-    return model.features.decode(features, root, model.fps)
+def decode_plain(
+    model: StyleModel, latents: Sequence[FloatArray], root: RootPath, smooth_s: float
+) -> list[Motion]:
+    """The report's decoding: each latent track (T_out, Z) -> features -> a clip on the root path (T_out
+    frames). The features of every track go through the per-frame steps as one clip end to end (one pass)."""
+    features = np.concatenate([model.decode_latents(track, smooth_s) for track in latents])
+    together = model.features.decode(features, root.repeated(len(latents)), model.fps)
+    frames = root.num_frames
+    return [together.slice(k * frames, (k + 1) * frames) for k in range(len(latents))]
 
 
 def output_frames(
