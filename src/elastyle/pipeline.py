@@ -9,7 +9,8 @@ Each step is one call into the module that owns it; docs/method.md describes eac
     whiten      steps.whiten.LatentStats.whiten          content and style latents decorrelated
     match       steps.search.search_sequential / _fixed  elastic patches: stretched content vs style windows,
                 steps.search.half_shifted                and the half-shifted sequence between them
-                steps.track.part_mismatch                per body part, how differently the matched windows act
+                steps.tempo                              searched again about the clip's tempo
+                steps.part_action.part_keeps             per body part, how differently the matched windows act
     place       steps.track._cover, _patch_sample        each patch on the content-time grid
     cross-fade  steps.track.style_track                  two half-shifted patch sequences, triangle weights
     colour      steps.whiten.LatentStats.colour          the style's statistics

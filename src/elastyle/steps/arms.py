@@ -1,6 +1,6 @@
 """Whether an arm does what its matched style windows do: where its hand is, and whether it goes back and forth.
 
-The legs tell a walk from a wave by their travel and steps (`steps.track.part_mismatch`); an arm needs two
+The legs tell a walk from a wave by their travel and steps (`steps.part_action.part_mismatch`); an arm needs two
 other measures, both in leg lengths, so any unit and skeleton size compare alike:
 
     hand offset        the distance between the hand's mean place (relative to the pelvis, heading frame)

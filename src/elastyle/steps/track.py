@@ -12,26 +12,21 @@ from functools import partial
 from typing import NamedTuple
 
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
 
 from elastyle.core.resample import interpolate_rows
-from elastyle.core.smoothing import smooth
-from elastyle.core.stats import median
 from elastyle.errors import ClipTooShortError
-from elastyle.steps.action import TURNING_COLUMN, sustained_turning
-from elastyle.steps.arms import arm_mismatch, back_and_forth, steady_rhythm
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.library import StyleLibrary, match_frames
+from elastyle.steps.part_action import eased, part_keeps
 from elastyle.steps.search import (
     Patch,
     SideGuard,
     StyleWindows,
     half_shifted,
-    mean_gap,
-    patch_windows,
     search_fixed,
     search_sequential,
 )
+from elastyle.steps.tempo import searched_about_tempo
 from elastyle.steps.whiten import LatentStats, adain
 from elastyle.types import BoolArray, FloatArray, IntArray
 
@@ -41,25 +36,6 @@ SHORT_PATCH_SHARE = 0.5  # patches shortened below this share of --patch-s get a
 FALLBACK_RAMP = (
     0.15  # the fallback to statistics rises from 0 to 1 over this much similarity below its threshold
 )
-
-
-TEMPO_SEARCHES = 2  # searches about the clip's tempo after the first (each from the previous one's tempo)
-# the tempo is read from patches whose legs' mismatch is below this, whatever --keep-action-above says: it
-# separates standing from stepping (a gesture given a walk's style: 0.69 to 0.75) and keeps stepping at
-# another pace or gait (a walk against a walk retimed to 0.6 to 2 times its cadence, or a run: 0.23 to 0.58)
-TEMPO_MISMATCH = 0.65
-# searched again only where the tempo lies over this share of --stretch from the range's tempo
-TEMPO_MOVE = 0.25
-# fewer tried lengths are too coarse to read a tempo from (the median jumps between the range's ends)
-MIN_TEMPO_LENGTHS = 5
-MIN_TEMPO_PATCHES = 2  # patches needed to read a tempo
-KEEP_RAMP = 0.15  # a part's share of the content's action rises from 0 to 1 over this much mismatch
-# each arm keeps the content's action at the clip's first and last frames, the share easing to the matched
-# windows' over this many patches: there one of the two half-shifted sequences alone covers the clip, and
-# its window, matched over a span that mixes the content's rest pose with its action, may begin or end mid-
-# gesture (27 of 150 held-out gesture and cross outputs had a hand over 0.3 legs from the content's at an end)
-ARM_ENDS_PATCHES = 0.5
-MISMATCH_FLOOR = 0.3  # legs (per second): what a part's mismatch is relative to, at the least
 
 
 class StyleTrack(NamedTuple):
@@ -154,19 +130,12 @@ def style_track(
     lengths = config.source_lengths(patch_frames, fps)
     guard = side_guard(content_actions, library, patch_frames, part_columns or {})
     patches = search(content_frames, windows, lengths, guard)
-    leg_columns = (part_columns or {}).get("legs", np.zeros(0, dtype=np.int64))
-    about_tempo = config.stretch_centre == "tempo" and config.placement == "sequential"
-    range_tempo = 1.0  # the tempo the tried stretches surround
-    for _ in range(TEMPO_SEARCHES if about_tempo and len(lengths) >= MIN_TEMPO_LENGTHS else 0):
-        # search again about the clip's tempo, so a pace beyond the first range is reached
-        tempo = stepping_tempo(content_actions, library.actions, patches, patch_frames, leg_columns)
-        if tempo is None or abs(tempo / range_tempo - 1) <= TEMPO_MOVE * config.stretch:
-            break  # no tempo to read, or the range already surrounds it
-        centred = config.source_lengths(patch_frames, fps, tempo)
-        if np.array_equal(centred, lengths):
-            break
-        range_tempo, lengths = tempo, centred
-        patches = search(content_frames, windows, lengths, guard)
+    if config.stretch_centre == "tempo" and config.placement == "sequential":  # a pace beyond the first range
+        leg_columns = (part_columns or {}).get("legs", np.zeros(0, dtype=np.int64))
+        patches = searched_about_tempo(
+            partial(search, content_frames, windows, guard=guard), patches, content_actions, library.actions,
+            config, patch_frames, fps, leg_columns,
+        )  # fmt: skip
     shifted = half_shifted(content_frames, windows, patches, guard)
     # place and cross-fade: each grid time reads both sequences' style windows, weighted by a triangle
     cover_a, cover_b = _cover(grid, patches), _cover(grid, shifted)
@@ -187,102 +156,23 @@ def style_track(
         own = interpolate_rows(white_content, grid)  # the content's own whitened latents (G, Z)
         white = (1 - fallback)[:, None] * white + fallback[:, None] * own
         log_rate = (1 - fallback) * log_rate  # the content's own pace where it keeps its action
-    # per body part: where the legs do another action than the matched windows (a walk matched against a
-    # run or a wave), the legs and the spine keep the content's action and the output its pace
-    mismatch = {
-        part: part_mismatch(content_actions, library.actions, patches, patch_frames, columns)
-        for part, columns in (part_columns or {}).items()
-    }
-    measures: dict[str, dict[str, FloatArray]] = {}  # per part, each measure's value per patch (P,)
-    keep: dict[str, FloatArray] = {}
-    other_action: dict[str, FloatArray] = {}
 
+    # per body part: where it does another action than the matched windows (legs: a walk matched against a
+    # run or a wave; an arm: a raise against a wave), it keeps the content's action; legs and spine keep the
+    # content's pace too
     def on_grid(values: FloatArray, shifted_values: FloatArray) -> FloatArray:
         """(G,) per-patch values of both sequences (P,), (P - 1,), cross-faded as the latents are."""
         return (weight_a * cover_a.values(values) + weight_b * cover_b.values(shifted_values)) / total
 
-    if "legs" in mismatch:
-        shifted_mismatch = part_mismatch(content_actions, library.actions, shifted, patch_frames, leg_columns)
-        # a turning walk matched against straight windows keeps its turn, and the other way round
-        content_turning = sustained_turning(content_actions, np.zeros(1, dtype=np.int64), fps)[:, None]
-        library_turning = library.derived(
-            ("turning", fps), lambda: sustained_turning(library.actions, library.clip_starts, fps)[:, None]
-        )
-        turning = [
-            mean_gap(content_turning, library_turning, sequence, patch_frames)
-            for sequence in (patches, shifted)
-        ]
-        # the gait alone (travel and steps without the turning): another action, not another path
-        gait = [
-            part_mismatch(content_actions, library.actions, sequence, patch_frames,
-                          leg_columns[leg_columns != TURNING_COLUMN])
-            for sequence in (patches, shifted)
-        ]  # fmt: skip
-        measures["legs"] = {"turning_difference": turning[0], "gait_mismatch": gait[0]}
-        share = np.maximum(
-            keep_share(on_grid(mismatch["legs"], shifted_mismatch), config.keep_action_above, ease),
-            keep_share(on_grid(*turning), config.legs_turning_above, ease),
-        )
-        keep = {"legs": share, "spine": share}
-        other_action["legs"] = keep_share(on_grid(*gait), config.keep_action_above, ease)
-        log_rate = (1 - share) * log_rate
-    # each arm: where its hand is elsewhere or goes back and forth where the window's does not (or the
-    # other way round), it keeps the content's action; the timeline stays the style's
-    for part, columns in (part_columns or {}).items():
-        if part == "legs":
-            continue
-        content_hand, library_hand = content_actions[:, columns[:3]], library.actions[:, columns[:3]]
-        one_clip = np.zeros(1, dtype=np.int64)
-        content_rhythm = _steady_hand_rhythm(content_hand, one_clip, fps)
-        library_rhythm = library.derived(
-            ("rhythm", tuple(columns[:3].tolist()), fps),
-            partial(_steady_hand_rhythm, library_hand, library.clip_starts, fps),
-        )
-        arm, shifted_arm = (
-            arm_mismatch(content_hand, content_rhythm, library_hand, library_rhythm, sequence, patch_frames)
-            for sequence in (patches, shifted)
-        )
-        measures[part] = arm._asdict()
-        offset = on_grid(arm.hand_offset, shifted_arm.hand_offset)
-        rhythm = on_grid(arm.rhythm_difference, shifted_arm.rhythm_difference)
-        # where the windows' hand goes back and forth more than the content's (a raise's held top against a
-        # wave), a short mismatch is held over the easing rather than flattened by it: the arm keeps the
-        # content's action fully there instead of taking part of the windows' sway
-        sways_more = on_grid(
-            *(
-                _sways_more(content_rhythm, library_rhythm, sequence, patch_frames)
-                for sequence in (patches, shifted)
-            )
-        )
-        shares = []
-        for values, above in ((offset, config.arm_offset_above), (rhythm, config.arm_rhythm_above)):
-            plain, held = keep_share(values, above, ease), keep_share(values, above, ease, held=True)
-            shares.append(plain + sways_more * (held - plain))
-        keep[part] = np.max([*shares, end_share(grid, ARM_ENDS_PATCHES * patch_frames)], axis=0)
+    parts = part_keeps(
+        content_actions, library, (patches, shifted), patch_frames, part_columns or {}, config, fps, on_grid,
+        grid, ease,
+    )  # fmt: skip
+    if "legs" in parts.keep:
+        log_rate = (1 - parts.keep["legs"]) * log_rate
     # colour with the style's statistics
     coloured = library.stats.colour(white, config.whiten_floor)
-    return StyleTrack(
-        coloured, log_rate, patches, patch_frames, fallback, mismatch, measures, keep, other_action
-    )
-
-
-def _sways_more(
-    content_rhythm: FloatArray, library_rhythm: FloatArray, patches: list[Patch], patch_frames: int
-) -> FloatArray:
-    """(P,) 1.0 where a patch's style window goes back and forth more than its content span (the mean of
-    each's steady rhythm, (T,) and (N,)), else 0.0."""
-    if not patches:
-        return np.zeros(0)
-    spans, windows = patch_windows(
-        content_rhythm[:, None], library_rhythm[:, None], patches, patch_frames, np.arange(1)
-    )
-    return (windows.mean(axis=(1, 2)) > spans.mean(axis=(1, 2))).astype(np.float64)
-
-
-def _steady_hand_rhythm(hand: FloatArray, clip_starts: IntArray, fps: float) -> FloatArray:
-    """(T,) how steadily a hand (T, 3), clips end to end from clip_starts (K,), goes back and forth
-    (`steps.arms.back_and_forth` read as `steady_rhythm`)."""
-    return steady_rhythm(back_and_forth(hand, clip_starts, fps), clip_starts, fps)
+    return StyleTrack(coloured, log_rate, patches, patch_frames, fallback, *parts)
 
 
 def side_guard(
@@ -309,80 +199,12 @@ def side_guard(
     return SideGuard(content_actions[:, left] - content_actions[:, right], windows, mirrored)
 
 
-def stepping_tempo(
-    content_actions: FloatArray,
-    library_actions: FloatArray,
-    patches: list[Patch],
-    patch_frames: int,
-    leg_columns: IntArray,
-) -> float | None:
-    """The clip's tempo: the median over patches of the content frames read per output frame, L' / L (above
-    1 where the style moves faster than the content), over the patches that lie inside the content
-    (T frames of actions (T, A)) and whose legs act as their windows' do (legs' mismatch below
-    `TEMPO_MISMATCH`: a walk's pace says nothing of a wave's); None with fewer than `MIN_TEMPO_PATCHES`."""
-    mismatch = part_mismatch(content_actions, library_actions, patches, patch_frames, leg_columns)
-    stretches = [
-        p.content_frames / patch_frames
-        for p, legs in zip(patches, mismatch)
-        if legs < TEMPO_MISMATCH and p.content_start + p.content_frames <= len(content_actions)
-    ]
-    if len(stretches) < MIN_TEMPO_PATCHES:
-        return None
-    return float(np.exp(median(np.log(stretches))))
-
-
-def part_mismatch(
-    content_actions: FloatArray,
-    library_actions: FloatArray,
-    patches: list[Patch],
-    patch_frames: int,
-    columns: IntArray,
-) -> FloatArray:
-    """(P,) how differently a body part acts in each patch's content span (stretched to L frames) and its
-    style window: the RMS difference of the part's action descriptors (T, A) columns (K,), relative to
-    their RMS in both (at least `MISMATCH_FLOOR`). 0: the same action; 1: as different as they are large."""
-    if not patches or not len(columns):
-        return np.zeros(len(patches))
-    content, style = patch_windows(content_actions, library_actions, patches, patch_frames, columns)
-    difference = np.sqrt(np.mean((content - style) ** 2, axis=(1, 2)))
-    size = np.sqrt(np.mean(content**2, axis=(1, 2)) + np.mean(style**2, axis=(1, 2)))
-    return difference / (size + MISMATCH_FLOOR)
-
-
-def keep_share(mismatch: FloatArray, above: float, ease_steps: float, held: bool = False) -> FloatArray:
-    """(G,) 0 where a part's mismatch (G,) is at most `above`, rising smoothly to 1 at `KEEP_RAMP` over it,
-    eased in and out in time (Gaussian, sigma `ease_steps` grid steps); held: each share first held at its
-    running maximum over `ease_steps` either side, so the easing widens a short peak (an arm's mismatch
-    that lasts less than a patch, a raise's top against a wave's) instead of flattening it."""
-    return _eased((mismatch - above) / KEEP_RAMP, ease_steps, held)
-
-
-def end_share(grid: FloatArray, span: float) -> FloatArray:
-    """(G,) 1 at the grid's (G,) first and last times, easing (smoothstep) to 0 at `span` content frames
-    from them."""
-    distance = np.minimum(grid - grid[0], grid[-1] - grid) if len(grid) else grid
-    x = np.clip(1 - distance / max(span, 1e-9), 0.0, 1.0)
-    return x * x * (3 - 2 * x)
-
-
 def fallback_share(similarity: FloatArray, below: float, ease_steps: float) -> FloatArray:
     """(G,) 0 where the matched windows' similarity (G,) is at least `below`, rising smoothly to 1 at
     `FALLBACK_RAMP` under it, then eased in and out in time (Gaussian, sigma `ease_steps` grid steps)."""
     if below <= -1:
         return np.zeros_like(similarity)
-    return _eased((below - similarity) / FALLBACK_RAMP, ease_steps)
-
-
-def _eased(ramp: FloatArray, ease_steps: float, held: bool = False) -> FloatArray:
-    """(G,) a ramp (G,) clipped to [0, 1] through a smoothstep, then eased in and out in time (Gaussian,
-    sigma `ease_steps` grid steps), held at its running maximum over `ease_steps` either side first if
-    asked."""
-    x = np.clip(ramp, 0.0, 1.0)
-    x = x * x * (3 - 2 * x)
-    if held and len(x):
-        reach = int(round(ease_steps))
-        x = sliding_window_view(np.pad(x, reach, mode="edge"), 2 * reach + 1).max(axis=-1)
-    return np.clip(smooth(x, ease_steps), 0.0, 1.0)
+    return eased((below - similarity) / FALLBACK_RAMP, ease_steps)
 
 
 class _Cover(NamedTuple):

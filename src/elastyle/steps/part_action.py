@@ -1,0 +1,193 @@
+"""Per body part: whether it does what its matched style windows do, and where it keeps the content's own
+action instead (docs/method.md, "Per body part").
+
+The legs compare their travel and steps (`part_mismatch`) and their turning; each arm where its hand is
+and whether it goes back and forth (`steps.arms`). A part's share of the content's action rises from 0 to 1
+over `KEEP_RAMP` past its threshold (`TransferConfig`), eased in and out in time; `steps.keep` performs it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from functools import partial
+from typing import NamedTuple
+
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+
+from elastyle.core.smoothing import smooth
+from elastyle.steps.action import TURNING_COLUMN, sustained_turning
+from elastyle.steps.arms import arm_mismatch, back_and_forth, steady_rhythm
+from elastyle.steps.config import TransferConfig
+from elastyle.steps.library import StyleLibrary
+from elastyle.steps.search import Patch, mean_gap, patch_windows
+from elastyle.types import FloatArray, IntArray
+
+KEEP_RAMP = 0.15  # a part's share of the content's action rises from 0 to 1 over this much mismatch
+# each arm keeps the content's action at the clip's first and last frames, the share easing to the matched
+# windows' over this many patches: there one of the two half-shifted sequences alone covers the clip, and
+# its window, matched over a span that mixes the content's rest pose with its action, may begin or end mid-
+# gesture (27 of 150 held-out gesture and cross outputs had a hand over 0.3 legs from the content's at an end)
+ARM_ENDS_PATCHES = 0.5
+MISMATCH_FLOOR = 0.3  # legs (per second): what a part's mismatch is relative to, at the least
+
+
+class PartKeeps(NamedTuple):
+    """Per body part (`StyleTrack`'s fields of the same names): mismatch, each patch's action mismatch (P,);
+    measures, each patch's other measures; keep (G,), the share of the content's own action; other_action
+    (G,), where it keeps it because the windows perform another action."""
+
+    mismatch: dict[str, FloatArray]
+    measures: dict[str, dict[str, FloatArray]]
+    keep: dict[str, FloatArray]
+    other_action: dict[str, FloatArray]
+
+
+def part_keeps(
+    content_actions: FloatArray,
+    library: StyleLibrary,
+    sequences: tuple[list[Patch], list[Patch]],
+    patch_frames: int,
+    part_columns: dict[str, IntArray],
+    config: TransferConfig,
+    fps: float,
+    on_grid: Callable[[FloatArray, FloatArray], FloatArray],
+    grid: FloatArray,
+    ease: float,
+) -> PartKeeps:
+    """What each body part does against its matched windows, for content action descriptors (T, A) and the
+    two half-shifted patch sequences; part_columns: each part's action columns (`steps.action`); on_grid:
+    two sequences' per-patch values (P,), (P - 1,) -> (G,) on the grid (G,) as the latents are cross-faded;
+    ease: the shares' easing in time, grid steps. Where the legs do another action than the windows (a walk
+    matched against a run or a wave), legs and spine keep the content's action; where an arm's hand is
+    elsewhere or goes back and forth where the window's does not (or the other way round), that arm does."""
+    patches, shifted = sequences
+    mismatch = {
+        part: part_mismatch(content_actions, library.actions, patches, patch_frames, columns)
+        for part, columns in part_columns.items()
+    }
+    measures: dict[str, dict[str, FloatArray]] = {}  # per part, each measure's value per patch (P,)
+    keep: dict[str, FloatArray] = {}
+    other_action: dict[str, FloatArray] = {}
+    if "legs" in mismatch:
+        leg_columns = part_columns["legs"]
+        shifted_mismatch = part_mismatch(content_actions, library.actions, shifted, patch_frames, leg_columns)
+        # a turning walk matched against straight windows keeps its turn, and the other way round
+        content_turning = sustained_turning(content_actions, np.zeros(1, dtype=np.int64), fps)[:, None]
+        library_turning = library.derived(
+            ("turning", fps), lambda: sustained_turning(library.actions, library.clip_starts, fps)[:, None]
+        )
+        turning = [
+            mean_gap(content_turning, library_turning, sequence, patch_frames)
+            for sequence in (patches, shifted)
+        ]
+        # the gait alone (travel and steps without the turning): another action, not another path
+        gait = [
+            part_mismatch(content_actions, library.actions, sequence, patch_frames,
+                          leg_columns[leg_columns != TURNING_COLUMN])
+            for sequence in (patches, shifted)
+        ]  # fmt: skip
+        measures["legs"] = {"turning_difference": turning[0], "gait_mismatch": gait[0]}
+        share = np.maximum(
+            keep_share(on_grid(mismatch["legs"], shifted_mismatch), config.keep_action_above, ease),
+            keep_share(on_grid(*turning), config.legs_turning_above, ease),
+        )
+        keep = {"legs": share, "spine": share}
+        other_action["legs"] = keep_share(on_grid(*gait), config.keep_action_above, ease)
+    for part, columns in part_columns.items():
+        if part == "legs":
+            continue
+        content_hand, library_hand = content_actions[:, columns[:3]], library.actions[:, columns[:3]]
+        one_clip = np.zeros(1, dtype=np.int64)
+        content_rhythm = _steady_hand_rhythm(content_hand, one_clip, fps)
+        library_rhythm = library.derived(
+            ("rhythm", tuple(columns[:3].tolist()), fps),
+            partial(_steady_hand_rhythm, library_hand, library.clip_starts, fps),
+        )
+        arm, shifted_arm = (
+            arm_mismatch(content_hand, content_rhythm, library_hand, library_rhythm, sequence, patch_frames)
+            for sequence in (patches, shifted)
+        )
+        measures[part] = arm._asdict()
+        offset = on_grid(arm.hand_offset, shifted_arm.hand_offset)
+        rhythm = on_grid(arm.rhythm_difference, shifted_arm.rhythm_difference)
+        # where the windows' hand goes back and forth more than the content's (a raise's held top against a
+        # wave), a short mismatch is held over the easing rather than flattened by it: the arm keeps the
+        # content's action fully there instead of taking part of the windows' sway
+        sways_more = on_grid(
+            *(
+                _sways_more(content_rhythm, library_rhythm, sequence, patch_frames)
+                for sequence in (patches, shifted)
+            )
+        )
+        shares = []
+        for values, above in ((offset, config.arm_offset_above), (rhythm, config.arm_rhythm_above)):
+            plain, held = keep_share(values, above, ease), keep_share(values, above, ease, held=True)
+            shares.append(plain + sways_more * (held - plain))
+        keep[part] = np.max([*shares, end_share(grid, ARM_ENDS_PATCHES * patch_frames)], axis=0)
+    return PartKeeps(mismatch, measures, keep, other_action)
+
+
+def part_mismatch(
+    content_actions: FloatArray,
+    library_actions: FloatArray,
+    patches: list[Patch],
+    patch_frames: int,
+    columns: IntArray,
+) -> FloatArray:
+    """(P,) how differently a body part acts in each patch's content span (stretched to L frames) and its
+    style window: the RMS difference of the part's action descriptors (T, A) columns (K,), relative to
+    their RMS in both (at least `MISMATCH_FLOOR`). 0: the same action; 1: as different as they are large."""
+    if not patches or not len(columns):
+        return np.zeros(len(patches))
+    content, style = patch_windows(content_actions, library_actions, patches, patch_frames, columns)
+    difference = np.sqrt(np.mean((content - style) ** 2, axis=(1, 2)))
+    size = np.sqrt(np.mean(content**2, axis=(1, 2)) + np.mean(style**2, axis=(1, 2)))
+    return difference / (size + MISMATCH_FLOOR)
+
+
+def keep_share(mismatch: FloatArray, above: float, ease_steps: float, held: bool = False) -> FloatArray:
+    """(G,) 0 where a part's mismatch (G,) is at most `above`, rising smoothly to 1 at `KEEP_RAMP` over it,
+    eased in and out in time (Gaussian, sigma `ease_steps` grid steps); held: each share first held at its
+    running maximum over `ease_steps` either side, so the easing widens a short peak (an arm's mismatch
+    that lasts less than a patch, a raise's top against a wave's) instead of flattening it."""
+    return eased((mismatch - above) / KEEP_RAMP, ease_steps, held)
+
+
+def end_share(grid: FloatArray, span: float) -> FloatArray:
+    """(G,) 1 at the grid's (G,) first and last times, easing (smoothstep) to 0 at `span` content frames
+    from them."""
+    distance = np.minimum(grid - grid[0], grid[-1] - grid) if len(grid) else grid
+    x = np.clip(1 - distance / max(span, 1e-9), 0.0, 1.0)
+    return x * x * (3 - 2 * x)
+
+
+def eased(ramp: FloatArray, ease_steps: float, held: bool = False) -> FloatArray:
+    """(G,) a ramp (G,) clipped to [0, 1] through a smoothstep, then eased in and out in time (Gaussian,
+    sigma `ease_steps` grid steps), held at its running maximum over `ease_steps` either side first if
+    asked."""
+    x = np.clip(ramp, 0.0, 1.0)
+    x = x * x * (3 - 2 * x)
+    if held and len(x):
+        reach = int(round(ease_steps))
+        x = sliding_window_view(np.pad(x, reach, mode="edge"), 2 * reach + 1).max(axis=-1)
+    return np.clip(smooth(x, ease_steps), 0.0, 1.0)
+
+
+def _sways_more(
+    content_rhythm: FloatArray, library_rhythm: FloatArray, patches: list[Patch], patch_frames: int
+) -> FloatArray:
+    """(P,) 1.0 where a patch's style window goes back and forth more than its content span (the mean of
+    each's steady rhythm, (T,) and (N,)), else 0.0."""
+    if not patches:
+        return np.zeros(0)
+    spans, windows = patch_windows(
+        content_rhythm[:, None], library_rhythm[:, None], patches, patch_frames, np.arange(1)
+    )
+    return (windows.mean(axis=(1, 2)) > spans.mean(axis=(1, 2))).astype(np.float64)
+
+
+def _steady_hand_rhythm(hand: FloatArray, clip_starts: IntArray, fps: float) -> FloatArray:
+    """(T,) how steadily a hand (T, 3), clips end to end from clip_starts (K,), goes back and forth
+    (`steps.arms.back_and_forth` read as `steady_rhythm`)."""
+    return steady_rhythm(back_and_forth(hand, clip_starts, fps), clip_starts, fps)
