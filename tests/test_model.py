@@ -93,7 +93,7 @@ def test_training_resumes_from_checkpoint(trained, tmp_path: Path, data_path: Pa
 
     from elastyle.cli import build_parser
     from elastyle.cli.train import train_config
-    from elastyle.training.loop import checkpoint_config
+    from elastyle.training.checkpoint import checkpoint_config
 
     recorded = checkpoint_config(str(checkpoint))
     assert recorded == TrainConfig(steps=300, learning_rate=1e-3, seed=0)
@@ -260,8 +260,7 @@ def test_a_resumed_cosine_schedule_goes_on_from_its_checkpoints_rate() -> None:
     larger budget the rate falls on from where the checkpoint left it to the floor at the new end (before,
     it rose again at the resume); after its budget was spent, at the floor."""
     from elastyle.training.config import TrainConfig
-    from elastyle.training.loop import spent_fraction
-    from elastyle.training.rate import FLOOR, LearningRate
+    from elastyle.training.rate import FLOOR, LearningRate, spent_fraction
 
     fresh = LearningRate(1e-3, cosine=True)
     same = LearningRate(1e-3, True, reached=0.4, resumed_at=0.4)

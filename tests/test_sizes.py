@@ -56,7 +56,7 @@ def test_a_smaller_character_keeps_its_size_and_stays_the_content_at_strength_ze
 
 def test_training_brings_its_clips_to_one_size(content: Motion) -> None:
     """Training reads clips as a transfer does: another unit or another body size at the first clip's size."""
-    from elastyle.training.loop import at_one_size
+    from elastyle.training.clips import at_one_size
 
     taller = content.scaled(1.01)  # within the performers' own spread: kept as it is
     sized = at_one_size([content, content.scaled(0.01), content.scaled(1.1), taller], content.skeleton)

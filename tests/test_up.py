@@ -108,7 +108,7 @@ def test_a_z_up_clip_converts_to_a_y_up_gltf_and_reports_its_height(
 def test_a_stated_up_is_checked_and_handed_to_every_reading_process(
     tmp_path: Path, dataset_clips: list[ClipRef], caplog
 ) -> None:  # type: ignore[no-untyped-def]
-    from elastyle.training.loop import load_motions
+    from elastyle.training.clips import load_motions
 
     walk = clip_named(dataset_clips, "dataset-2_walk_normal_005")
     z_up = _z_up_copy(walk, tmp_path / "z.bvh")

@@ -173,7 +173,8 @@ def _command_train(args: argparse.Namespace) -> int:
         import torch
     except ImportError:
         raise ElastyleError("training needs torch: pip install 'elastyle[train]'") from None
-    from elastyle.training.loop import checkpoint_config, train
+    from elastyle.training.checkpoint import checkpoint_config
+    from elastyle.training.loop import train
 
     if args.threads:
         torch.set_num_threads(args.threads)

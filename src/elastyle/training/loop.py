@@ -12,120 +12,30 @@ import json
 import logging
 import math
 import os
-import signal
-import threading
 import time
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
-from dataclasses import asdict, fields
+from dataclasses import asdict
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from elastyle.core.body import at_size_of, same_rest_pose
 from elastyle.core.mirror import mirror
-from elastyle.core.motion import Motion
-from elastyle.core.skeleton import Skeleton
 from elastyle.errors import ElastyleError, SkeletonMismatchError
-from elastyle.io.dataset import ClipRef, find_clips, read_up, split_held_out
+from elastyle.io.dataset import find_clips, split_held_out
 from elastyle.model.autoencoder import Autoencoder
-from elastyle.model.config import ModelConfig
 from elastyle.model.depth import DEFAULT_WARN_CM, calibrate
 from elastyle.model.features import FeatureSpec
 from elastyle.model.file import StyleModel, save_model
+from elastyle.training.checkpoint import StopOnInterrupt, read_checkpoint, recorded_config, save_checkpoint
+from elastyle.training.clips import at_one_size, check_one_skeleton, load_motions
 from elastyle.training.config import TrainConfig
-from elastyle.training.rate import LearningRate
+from elastyle.training.rate import LearningRate, spent_fraction
 from elastyle.training.windows import draw_speed, perturb_windows, sample_windows
 
 log = logging.getLogger(__name__)
 
 
 FEW_CLIPS = 5  # fewer training clips than this get a warning
-
-
-def _read_resampled(task: tuple[ClipRef, float | None, str]) -> Motion:
-    clip, fps, up = task
-    motion, _ = clip.read(up)
-    return motion if fps is None else motion.resample(fps)
-
-
-def load_motions(
-    clips: Sequence[ClipRef], fps: float | None, workers: int = 2, up: str | None = None
-) -> list[Motion]:
-    """Read clips (in parallel), resampled to `fps`; all must share one skeleton. up: how their up axis
-    is read (`ClipRef.read`; None: as `set_read_up` last said), handed to every reading process."""
-    tasks = [(clip, fps, up or read_up()) for clip in clips]
-    if len(tasks) > 8 and workers > 1:
-        with ProcessPoolExecutor(workers) as pool:
-            motions = list(pool.map(_read_resampled, tasks, chunksize=16))
-    else:
-        motions = [_read_resampled(t) for t in tasks]
-    if motions:
-        check_one_skeleton(motions[0].skeleton, clips[0].name, clips, motions)
-    return motions
-
-
-def check_one_skeleton(
-    skeleton: Skeleton, reference: str, clips: Sequence[ClipRef], motions: Sequence[Motion]
-) -> None:
-    """Every clip on `skeleton`, that of clip `reference`: its joints and its rest pose (a model learns
-    rotations from one rest pose); a one-line `SkeletonMismatchError` naming the first clip that differs."""
-    for clip, motion in zip(clips, motions):
-        skeleton.check_same(motion.skeleton, reference, clip.name)
-        if not same_rest_pose(skeleton, motion.skeleton):
-            raise SkeletonMismatchError(
-                f"{clip.name}: the joints of {reference}, but another rest pose (its bones point other ways at "
-                "rest, so its rotations mean other poses): export every training clip in one rest pose"
-            )
-
-
-def at_one_size(motions: list[Motion], reference: Skeleton) -> list[Motion]:
-    """Clips brought to the reference skeleton's unit and size (`core.body.size_factor`), as a transfer
-    reads them with the trained model."""
-    return [at_size_of(m, reference)[0] for m in motions]
-
-
-def _checkpoint(path: str) -> dict[str, Any]:
-    """A training checkpoint's state, or a one-line `ElastyleError` for a file that is not one."""
-    import torch
-
-    try:
-        state = torch.load(path, weights_only=True)
-    except Exception:  # torch raises many kinds for a file that is not its own
-        raise ElastyleError(
-            f"{path}: not a training checkpoint (MODEL.npz.ckpt; a model file .npz cannot be resumed)"
-        ) from None
-    if not isinstance(state, dict) or not {"network", "optimizer", "step", "elapsed_s"} <= set(state):
-        raise ElastyleError(f"{path}: not a training checkpoint (MODEL.npz.ckpt)")
-    return state
-
-
-def checkpoint_config(path: str) -> TrainConfig | None:
-    """The settings a checkpoint's training ran with (its budget too), or None for a checkpoint written
-    before they were recorded; a one-line `ElastyleError` for a file that is not a checkpoint."""
-    return _recorded_config(_checkpoint(path))
-
-
-def _recorded_config(state: dict[str, Any]) -> TrainConfig | None:
-    """The settings recorded in a checkpoint's state (`checkpoint_config`)."""
-    recorded = state.get("train_config")
-    if not isinstance(recorded, str):
-        return None
-    values = json.loads(recorded)
-    known = {f.name for f in fields(TrainConfig)}
-    model = ModelConfig(**values.pop("model"))
-    values["speed_range"] = tuple(values.get("speed_range", TrainConfig.speed_range))
-    return TrainConfig(model=model, **{name: value for name, value in values.items() if name in known})
-
-
-def spent_fraction(config: TrainConfig, step: int, elapsed_s: float) -> float:
-    """The share of `config`'s budget spent at `step` after `elapsed_s` seconds of training (its steps,
-    else its minutes)."""
-    if config.steps is not None:
-        return step / config.steps if config.steps > 0 else 1.0
-    budget_s = (config.minutes or 0.0) * 60
-    return elapsed_s / budget_s if budget_s > 0 else 1.0
 
 
 def train(
@@ -217,7 +127,7 @@ def train(
     reached = None  # for a resumed run, the share of its checkpoint's own budget spent
     checkpoint_path = Path(str(output) + ".ckpt")
     if resume:
-        state = _checkpoint(resume)
+        state = read_checkpoint(resume)
         try:
             network.load_state_dict(state["network"])
             optimizer.load_state_dict(state["optimizer"])
@@ -230,9 +140,9 @@ def train(
         step = int(state["step"])
         resumed_at = step
         elapsed_before = float(state["elapsed_s"])
-        recorded_config = _recorded_config(state)
-        if recorded_config is not None:
-            reached = spent_fraction(recorded_config, step, elapsed_before)
+        settings = recorded_config(state)
+        if settings is not None:
+            reached = spent_fraction(settings, step, elapsed_before)
         rng = np.random.default_rng(config.seed + step)
         log.info("resumed from %s at step %d", resume, step)
         recorded = state.get("clip_names")
@@ -277,7 +187,7 @@ def train(
     started = time.perf_counter()
     val_loss = float("nan")
     train_loss = float("nan")
-    stop = _StopOnInterrupt()  # Ctrl-C ends training after the step under way, with a checkpoint
+    stop = StopOnInterrupt()  # Ctrl-C ends training after the step under way, with a checkpoint
     try:
         while (
             step < budget_steps
@@ -327,7 +237,7 @@ def train(
                 bar.set_postfix(shown, refresh=False)
             if step % config.checkpoint_every == 0:
                 spent = elapsed_before + time.perf_counter() - started
-                _save_checkpoint(checkpoint_path, network, optimizer, step, spent, config, clip_names)
+                save_checkpoint(checkpoint_path, network, optimizer, step, spent, config, clip_names)
                 if bar is None or bar.disable:  # no bar (not a terminal): a line per checkpoint
                     held = f", held-out {val_loss:.4f}" if math.isfinite(val_loss) else ""
                     log.info(
@@ -339,7 +249,7 @@ def train(
     if bar is not None:
         bar.close()
     elapsed = elapsed_before + time.perf_counter() - started
-    _save_checkpoint(checkpoint_path, network, optimizer, step, elapsed, config, clip_names)
+    save_checkpoint(checkpoint_path, network, optimizer, step, elapsed, config, clip_names)
     if stop.asked:
         log.warning(
             "interrupted at step %d: the training so far is in %s; continue it with `elastyle train ... -o %s "
@@ -393,51 +303,3 @@ def train(
     if step == resumed_at:
         log.warning("warning: %s: no training step was taken (the budget was spent before this run)", output)
     return model
-
-
-class _StopOnInterrupt:
-    """Ctrl-C (SIGINT) asks training to stop after the step under way (`asked`), so its checkpoint holds
-    whole steps; a second Ctrl-C interrupts at once. In the main thread only (elsewhere: nothing changes);
-    `release` restores the handler it replaced."""
-
-    def __init__(self) -> None:
-        self.asked = False
-        self._previous: Any = None
-        if threading.current_thread() is threading.main_thread():
-            self._previous = signal.signal(signal.SIGINT, self._ask)
-
-    def _ask(self, signum: int, frame: Any) -> None:
-        self.asked = True
-        signal.signal(signal.SIGINT, signal.default_int_handler)  # a second Ctrl-C stops at once
-
-    def release(self) -> None:
-        if self._previous is not None:
-            signal.signal(signal.SIGINT, self._previous)
-            self._previous = None
-
-
-def _save_checkpoint(
-    path: Path,
-    network: Any,
-    optimizer: Any,
-    step: int,
-    elapsed_s: float,
-    config: TrainConfig,
-    clip_names: list[str],
-) -> None:
-    """The training's state, and the settings it runs with (`checkpoint_config`), written atomically."""
-    import torch
-
-    temporary = path.with_suffix(".tmp")
-    torch.save(
-        {
-            "network": network.state_dict(),
-            "optimizer": optimizer.state_dict(),
-            "step": step,
-            "elapsed_s": elapsed_s,
-            "train_config": json.dumps(asdict(config)),
-            "clip_names": clip_names,
-        },
-        temporary,
-    )
-    temporary.replace(path)

@@ -6,6 +6,8 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+from elastyle.training.config import TrainConfig
+
 FLOOR = 0.05  # the cosine schedule ends at this share of the learning rate
 
 
@@ -40,3 +42,12 @@ class LearningRate(NamedTuple):
             return 1.0
         remaining = (min(fraction, 1.0) - self.resumed_at) / (1 - self.resumed_at)
         return reached + (1 - reached) * max(remaining, 0.0)
+
+
+def spent_fraction(config: TrainConfig, step: int, elapsed_s: float) -> float:
+    """The share of `config`'s budget spent at `step` after `elapsed_s` seconds of training (its steps,
+    else its minutes)."""
+    if config.steps is not None:
+        return step / config.steps if config.steps > 0 else 1.0
+    budget_s = (config.minutes or 0.0) * 60
+    return elapsed_s / budget_s if budget_s > 0 else 1.0

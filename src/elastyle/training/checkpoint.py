@@ -1,0 +1,96 @@
+"""Training checkpoints: the network's and optimiser's state, the step, the time spent and the settings,
+written atomically as training goes (and on Ctrl-C, which ends training after the step under way)."""
+
+from __future__ import annotations
+
+import json
+import signal
+import threading
+from dataclasses import asdict, fields
+from pathlib import Path
+from typing import Any
+
+from elastyle.errors import ElastyleError
+from elastyle.model.config import ModelConfig
+from elastyle.training.config import TrainConfig
+
+
+def read_checkpoint(path: str) -> dict[str, Any]:
+    """A training checkpoint's state, or a one-line `ElastyleError` for a file that is not one."""
+    import torch
+
+    try:
+        state = torch.load(path, weights_only=True)
+    except Exception:  # torch raises many kinds for a file that is not its own
+        raise ElastyleError(
+            f"{path}: not a training checkpoint (MODEL.npz.ckpt; a model file .npz cannot be resumed)"
+        ) from None
+    if not isinstance(state, dict) or not {"network", "optimizer", "step", "elapsed_s"} <= set(state):
+        raise ElastyleError(f"{path}: not a training checkpoint (MODEL.npz.ckpt)")
+    return state
+
+
+def checkpoint_config(path: str) -> TrainConfig | None:
+    """The settings a checkpoint's training ran with (its budget too), or None for a checkpoint written
+    before they were recorded; a one-line `ElastyleError` for a file that is not a checkpoint."""
+    return recorded_config(read_checkpoint(path))
+
+
+def recorded_config(state: dict[str, Any]) -> TrainConfig | None:
+    """The settings recorded in a checkpoint's state (`checkpoint_config`)."""
+    recorded = state.get("train_config")
+    if not isinstance(recorded, str):
+        return None
+    values = json.loads(recorded)
+    known = {f.name for f in fields(TrainConfig)}
+    model = ModelConfig(**values.pop("model"))
+    values["speed_range"] = tuple(values.get("speed_range", TrainConfig.speed_range))
+    return TrainConfig(model=model, **{name: value for name, value in values.items() if name in known})
+
+
+class StopOnInterrupt:
+    """Ctrl-C (SIGINT) asks training to stop after the step under way (`asked`), so its checkpoint holds
+    whole steps; a second Ctrl-C interrupts at once. In the main thread only (elsewhere: nothing changes);
+    `release` restores the handler it replaced."""
+
+    def __init__(self) -> None:
+        self.asked = False
+        self._previous: Any = None
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._ask)
+
+    def _ask(self, signum: int, frame: Any) -> None:
+        self.asked = True
+        signal.signal(signal.SIGINT, signal.default_int_handler)  # a second Ctrl-C stops at once
+
+    def release(self) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+            self._previous = None
+
+
+def save_checkpoint(
+    path: Path,
+    network: Any,
+    optimizer: Any,
+    step: int,
+    elapsed_s: float,
+    config: TrainConfig,
+    clip_names: list[str],
+) -> None:
+    """The training's state, and the settings it runs with (`checkpoint_config`), written atomically."""
+    import torch
+
+    temporary = path.with_suffix(".tmp")
+    torch.save(
+        {
+            "network": network.state_dict(),
+            "optimizer": optimizer.state_dict(),
+            "step": step,
+            "elapsed_s": elapsed_s,
+            "train_config": json.dumps(asdict(config)),
+            "clip_names": clip_names,
+        },
+        temporary,
+    )
+    temporary.replace(path)

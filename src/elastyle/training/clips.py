@@ -1,0 +1,55 @@
+"""The training clips: read in parallel at one frame rate, checked to share one skeleton and rest pose, and
+brought to one size."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor
+
+from elastyle.core.body import at_size_of, same_rest_pose
+from elastyle.core.motion import Motion
+from elastyle.core.skeleton import Skeleton
+from elastyle.errors import SkeletonMismatchError
+from elastyle.io.dataset import ClipRef, read_up
+
+
+def _read_resampled(task: tuple[ClipRef, float | None, str]) -> Motion:
+    clip, fps, up = task
+    motion, _ = clip.read(up)
+    return motion if fps is None else motion.resample(fps)
+
+
+def load_motions(
+    clips: Sequence[ClipRef], fps: float | None, workers: int = 2, up: str | None = None
+) -> list[Motion]:
+    """Read clips (in parallel), resampled to `fps`; all must share one skeleton. up: how their up axis
+    is read (`ClipRef.read`; None: as `set_read_up` last said), handed to every reading process."""
+    tasks = [(clip, fps, up or read_up()) for clip in clips]
+    if len(tasks) > 8 and workers > 1:
+        with ProcessPoolExecutor(workers) as pool:
+            motions = list(pool.map(_read_resampled, tasks, chunksize=16))
+    else:
+        motions = [_read_resampled(t) for t in tasks]
+    if motions:
+        check_one_skeleton(motions[0].skeleton, clips[0].name, clips, motions)
+    return motions
+
+
+def check_one_skeleton(
+    skeleton: Skeleton, reference: str, clips: Sequence[ClipRef], motions: Sequence[Motion]
+) -> None:
+    """Every clip on `skeleton`, that of clip `reference`: its joints and its rest pose (a model learns
+    rotations from one rest pose); a one-line `SkeletonMismatchError` naming the first clip that differs."""
+    for clip, motion in zip(clips, motions):
+        skeleton.check_same(motion.skeleton, reference, clip.name)
+        if not same_rest_pose(skeleton, motion.skeleton):
+            raise SkeletonMismatchError(
+                f"{clip.name}: the joints of {reference}, but another rest pose (its bones point other ways at "
+                "rest, so its rotations mean other poses): export every training clip in one rest pose"
+            )
+
+
+def at_one_size(motions: list[Motion], reference: Skeleton) -> list[Motion]:
+    """Clips brought to the reference skeleton's unit and size (`core.body.size_factor`), as a transfer
+    reads them with the trained model."""
+    return [at_size_of(m, reference)[0] for m in motions]
