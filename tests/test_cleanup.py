@@ -11,8 +11,17 @@ from elastyle.core.skeleton import Skeleton
 from elastyle.eval.metrics import foot_skating_cm_s, jerk
 from elastyle.io.bvh_read import parse_bvh
 from elastyle.io.dataset import ClipRef
-from elastyle.steps.cleanup import adjust_root_speed, clean_feet, held_footing, lift_to_ground, plant_feet
-from elastyle.steps.contacts import HEEL, TOE, detect_contacts, detect_point_contacts, ground_level, mask_runs
+from elastyle.steps.cleanup import clean_feet, lift_to_ground, plant_feet
+from elastyle.steps.contacts import (
+    HEEL,
+    TOE,
+    detect_contacts,
+    detect_point_contacts,
+    ground_level,
+    held_footing,
+    mask_runs,
+)
+from elastyle.steps.root_follow import adjust_root_speed
 from elastyle.types import BoolArray, FloatArray
 from tests.conftest import THREE_CHANNEL_BVH, clip_named
 

@@ -49,9 +49,9 @@ from elastyle.steps.action import (
     walks_backwards,
     walks_sideways,
 )
-from elastyle.steps.cleanup import held_footing, lift_to_ground, plant_feet
+from elastyle.steps.cleanup import lift_to_ground, plant_feet
 from elastyle.steps.config import TransferConfig
-from elastyle.steps.contacts import ground_level
+from elastyle.steps.contacts import ground_level, held_footing
 from elastyle.steps.decode import (
     blend_by_strength,
     compose_residual,

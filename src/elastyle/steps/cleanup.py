@@ -1,6 +1,7 @@
 """Foot clean-up: pin planted feet with two-joint leg IK, and let the root follow the stride.
 
-Contacts come from `steps.contacts`; the IK from `steps.leg_ik`. Axes +Y up; lengths in the file's unit.
+Contacts come from `steps.contacts`; the IK from `steps.leg_ik`; the root's following from
+`steps.root_follow`. Axes +Y up; lengths in the file's unit.
 """
 
 from __future__ import annotations
@@ -11,23 +12,19 @@ from elastyle.core.body import Limbs, find_limbs, leg_length
 from elastyle.core.foot_tips import on_own_joints, with_foot_tips
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import lengths
-from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import pad_edges, smooth
 from elastyle.steps.contacts import (
-    EXIT_HEIGHT_OF_LEG,
-    contact_points,
+    checked_contacts,
     detect_contacts,
     ground_level,
     mask_runs,
     pivots,
-    point_grounds,
 )
 from elastyle.steps.leg_ik import is_below, leg_ik
+from elastyle.steps.root_follow import SMOOTH_SIGMA_OF_WIDTH, carried_by_pelvis, root_shift, shift_pelvis
 from elastyle.types import BoolArray, FloatArray, IntArray
 
 BRIDGE_GAP_S = 0.6  # a foot's gaps between contacts up to this long (a step's swing) are bridged directly
-SMOOTH_SIGMA_OF_WIDTH = 0.4  # a window's half-width w is smoothed by a Gaussian of sigma 0.4 w
-ROOT_TOLERANCE_OF_PATH = 0.1  # the adjusted root strays at most this fraction of the path's length from it
 # a lift up to a foot floor (`clean_feet`) eases in and out over this long (seconds), a swing's few frames
 FLOOR_EASE_S = 0.1
 SOFT_REACH = 0.995  # IK straightens a knee up to this fraction of the leg's reach before lowering the pelvis
@@ -57,28 +54,28 @@ def _plant_feet(
     ground: float | None = None,
 ) -> Motion:
     """The whole clean-up: contacts found, the root moved by `root_share` (or per frame (T,)) of the stance feet's drift
-    (`adjust_root_speed`, skipped at 0), then the feet pinned (`clean_feet`). One forward kinematics pass
+    (`steps.root_follow.adjust_root_speed`, skipped at 0), then the feet pinned (`clean_feet`). One forward kinematics pass
     serves all three: moving the root moves the legs with it and turns nothing. also: (T, F) contacts known
     from elsewhere, added to those found; foot_floor: (T, F, 2) the lowest height of each foot's toe and
     ankle (`clean_feet`): legs that step as another clip does take its contacts and its feet's clearance
-    of the ground (`held_footing`); ground: the toes' ground level (`clean_feet`)."""
+    of the ground (`steps.contacts.held_footing`); ground: the toes' ground level (`clean_feet`)."""
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
         return _clean_feet(motion)
     world_rotations, positions = motion.world(limbs.feet)
     contacts = detect_contacts(motion, positions)
     if also is not None:
-        contacts = contacts | _checked(also, motion, limbs)
+        contacts = contacts | checked_contacts(also, motion, limbs)
     if np.all(np.asarray(root_share) <= 0):
         return _clean_feet(
             motion, contacts, world=(world_rotations, positions), foot_floor=foot_floor, ground=ground
         )
-    shift = _root_shift(motion, contacts, (world_rotations, positions), root_share)  # (T, 3) world
+    shift = root_shift(motion, contacts, (world_rotations, positions), root_share)  # (T, 3) world
     moved = Motion(
-        skeleton, motion.rotations.copy(), _shift_pelvis(motion, world_rotations, shift), motion.fps
+        skeleton, motion.rotations.copy(), shift_pelvis(motion, world_rotations, shift), motion.fps
     )
     positions = positions.copy()
-    positions[:, _carried_by_pelvis(skeleton, limbs)] += shift[:, None]
+    positions[:, carried_by_pelvis(skeleton, limbs)] += shift[:, None]
     return _clean_feet(
         moved, contacts, world=(world_rotations, positions), foot_floor=foot_floor, ground=ground
     )
@@ -126,7 +123,9 @@ def _clean_feet(
     if len(limbs.toes) == 0:
         return Motion(skeleton, motion.rotations.copy(), motion.translations.copy(), motion.fps)
     world_rotations, positions = motion.world(limbs.feet) if world is None else world  # legs and their roots
-    contacts = detect_contacts(motion, positions) if contacts is None else _checked(contacts, motion, limbs)
+    contacts = (
+        detect_contacts(motion, positions) if contacts is None else checked_contacts(contacts, motion, limbs)
+    )
     leg = leg_length(skeleton, limbs)
     ground = ground_level(motion, positions) if ground is None else ground
     ramp_frames = blend_s * motion.fps
@@ -157,9 +156,9 @@ def _clean_feet(
     if np.any(lowering > 0):
         shift = np.zeros((motion.num_frames, 3))
         shift[:, 1] = -lowering
-        translations = _shift_pelvis(motion, world_rotations, shift)
+        translations = shift_pelvis(motion, world_rotations, shift)
         positions = positions.copy()
-        positions[:, _carried_by_pelvis(skeleton, limbs)] += shift[:, None]
+        positions[:, carried_by_pelvis(skeleton, limbs)] += shift[:, None]
     # 3. two-joint IK, every leg at once; only frames whose ankle has to move change (elsewhere the input stays exact)
     chains = chains[legs]
     moved = lengths(targets[:, legs] - positions[:, chains[:, 2]]) > 1e-9 * leg  # (T, F_legs)
@@ -171,32 +170,6 @@ def _clean_feet(
     return Motion(skeleton, rotations, translations, motion.fps)
 
 
-def held_footing(reference: Motion, where: BoolArray) -> tuple[BoolArray, FloatArray]:
-    """What legs that keep another clip's stepping hold from it, at its frames `where` (T,): its contacts
-    (T, F), and a floor under each foot (T, F, 2) for `clean_feet`, its toe's and ankle's lowest heights
-    (file units), -inf outside `where`.
-
-    A foot's clearance is the lower of its toe's and its ankle's heights above their ground levels
-    (`point_grounds`, as the contacts and `pivots` read them). The floor lets each foot come no closer to the ground than the
-    reference's does at the same moment, up to `EXIT_HEIGHT_OF_LEG` (where a foot leaves contact): each
-    point at its ground level plus that clearance. A change laid on such legs (the style's statistics) may
-    lower a swinging foot until it skims or sinks through the floor the reference's foot clears; the floor
-    keeps the reference's clearance near the ground, leaves every higher part of the swing to the change,
-    and does not lift a heel that strikes flatter than the reference's (its clearance is already the
-    heel's)."""
-    reference = with_foot_tips(reference)  # a toe-less foot's End Site as its toe
-    limbs = find_limbs(reference.skeleton)
-    if len(limbs.toes) == 0:  # no feet to hold
-        return np.zeros((reference.num_frames, 0), dtype=bool), np.zeros((reference.num_frames, 0, 2))
-    positions = reference.positions(limbs.feet)
-    contacts = detect_contacts(reference, positions) & where[:, None]
-    heights = positions[:, contact_points(limbs), 1]  # (T, F, 2) toe, ankle
-    grounds = point_grounds(heights)  # (1, 1, 2)
-    clearance = np.min(heights - grounds, axis=-1, keepdims=True)  # (T, F, 1)
-    floor = grounds + np.minimum(clearance, EXIT_HEIGHT_OF_LEG * leg_length(reference.skeleton, limbs))
-    return contacts, np.where(where[:, None, None], floor, -np.inf)
-
-
 def lift_to_ground(motion: Motion, ground: float | None = None) -> Motion:
     """Toes and ankles below the toes' ground level (the clip's `ground_level` when None) lifted to it by the
     legs' IK, nothing else changed: for legs set after the clean-up (those that keep the content's action)."""
@@ -204,89 +177,11 @@ def lift_to_ground(motion: Motion, ground: float | None = None) -> Motion:
     return clean_feet(motion, np.zeros((motion.num_frames, len(limbs.toes)), dtype=bool), ground=ground)
 
 
-def adjust_root_speed(
-    motion: Motion,
-    contacts: BoolArray,
-    share: float = 1.0,
-    smooth_s: float = 0.2,
-    tolerance: float = ROOT_TOLERANCE_OF_PATH,
-) -> Motion:
-    """Move the pelvis horizontally so that planted feet drift less: the root advances with the stride.
-
-    contacts: (T, F) planted feet. Each frame step, the mean horizontal step (file units) of the feet held
-    at both frames (weighted as in `clean_feet`), low-passed over about `smooth_s` seconds, times `share`
-    (1: all of it, the feet stop drifting; 0.5: half, the legs' IK in `clean_feet` takes the rest), is taken
-    off the pelvis path; steps with no foot planted keep theirs. The share is lowered where needed so that
-    the root never strays further than `tolerance` of the path's horizontal length from the path it was
-    given (its shape and end point kept within 10 % by default). Run it before `clean_feet`.
-    """
-    limbs = find_limbs(motion.skeleton)
-    contacts = _checked(contacts, motion, limbs)
-    if motion.num_frames < 2 or contacts.shape[1] == 0:
-        return Motion(motion.skeleton, motion.rotations.copy(), motion.translations.copy(), motion.fps)
-    world = motion.world(limbs.feet)
-    shift = _root_shift(motion, contacts, world, share, smooth_s, tolerance)
-    return Motion(
-        motion.skeleton, motion.rotations.copy(), _shift_pelvis(motion, world[0], shift), motion.fps
-    )
-
-
-def _root_shift(
-    motion: Motion,
-    contacts: BoolArray,
-    world: tuple[FloatArray, FloatArray],
-    share: float | FloatArray,
-    smooth_s: float = 0.2,
-    tolerance: float = ROOT_TOLERANCE_OF_PATH,
-) -> FloatArray:
-    """(T, 3) world: how `adjust_root_speed` moves the pelvis, from the clip's world rotations and
-    positions of the feet and their ancestors (`Motion.world`)."""
-    limbs = find_limbs(motion.skeleton)
-    positions = world[1]
-    points, weights = pivots(positions, limbs, leg_length(motion.skeleton, limbs))  # (T, F, 2, 3), (T, F, 2)
-    planted = (contacts[1:] & contacts[:-1])[..., None] * 0.5 * (weights[1:] + weights[:-1])  # (T-1, F, 2)
-    steps = np.sum(planted[..., None] * np.diff(points, axis=0), axis=(1, 2))  # (T-1, 3)
-    drift = steps / np.maximum(planted.sum(axis=(1, 2)), 1.0)[:, None]  # (T-1, 3) mean planted-foot step
-    drift[:, 1] = 0.0
-    drift = smooth(drift, SMOOTH_SIGMA_OF_WIDTH * smooth_s * motion.fps)
-    per_step = np.broadcast_to(np.asarray(share, dtype=np.float64), (motion.num_frames,))[
-        1:, None
-    ]  # (T-1, 1)
-    shift = -np.concatenate([np.zeros((1, 3)), np.cumsum(per_step * drift, axis=0)])  # (T, 3) world
-    path = np.sum(lengths(np.diff(positions[:, motion.skeleton.pelvis, [0, 2]], axis=0)))
-    furthest = np.max(lengths(shift), initial=0.0)
-    if furthest > tolerance * path:
-        shift *= tolerance * path / furthest
-    return shift
-
-
-def _carried_by_pelvis(skeleton: Skeleton, limbs: Limbs) -> list[int]:
-    """The feet and their ancestors that move with the pelvis (the pelvis and the joints below it)."""
-    return [j for j in skeleton.with_ancestors(limbs.feet).tolist() if is_below(skeleton, j, skeleton.pelvis)]
-
-
 def _checked_floor(floor: FloatArray, motion: Motion, limbs: Limbs) -> FloatArray:
     floor = np.asarray(floor, dtype=np.float64)
     if floor.shape != (motion.num_frames, len(limbs.toes), 2):
         raise ValueError(f"foot_floor must be ({motion.num_frames}, {len(limbs.toes)}, 2), got {floor.shape}")
     return floor
-
-
-def _checked(contacts: BoolArray, motion: Motion, limbs: Limbs) -> BoolArray:
-    contacts = np.asarray(contacts, dtype=bool)
-    if contacts.shape != (motion.num_frames, len(limbs.toes)):
-        raise ValueError(f"contacts must be ({motion.num_frames}, {len(limbs.toes)}), got {contacts.shape}")
-    return contacts
-
-
-def _shift_pelvis(motion: Motion, world_rotations: FloatArray, shift: FloatArray) -> FloatArray:
-    """Translations (T, J, 3) with the pelvis moved by `shift` (T, 3), world frame, file units."""
-    pelvis, parent = motion.skeleton.pelvis, motion.skeleton.parents[motion.skeleton.pelvis]
-    if parent >= 0:  # the pelvis translation is in its parent's frame
-        shift = np.einsum("tji,tj->ti", world_rotations[:, parent], shift)
-    translations = motion.translations.copy()
-    translations[:, pelvis] += shift
-    return translations
 
 
 def _pin_corrections(

@@ -167,3 +167,37 @@ def pivots(positions: FloatArray, limbs: Limbs, leg: float) -> tuple[FloatArray,
 def _smoothstep(x: FloatArray) -> FloatArray:
     x = np.clip(x, 0.0, 1.0)
     return x * x * (3 - 2 * x)
+
+
+def checked_contacts(contacts: BoolArray, motion: Motion, limbs: Limbs) -> BoolArray:
+    """Contacts (T, F) for a clip's T frames and F feet, or a ValueError saying the shape they need."""
+    contacts = np.asarray(contacts, dtype=bool)
+    if contacts.shape != (motion.num_frames, len(limbs.toes)):
+        raise ValueError(f"contacts must be ({motion.num_frames}, {len(limbs.toes)}), got {contacts.shape}")
+    return contacts
+
+
+def held_footing(reference: Motion, where: BoolArray) -> tuple[BoolArray, FloatArray]:
+    """What legs that keep another clip's stepping hold from it, at its frames `where` (T,): its contacts
+    (T, F), and a floor under each foot (T, F, 2) for `clean_feet`, its toe's and ankle's lowest heights
+    (file units), -inf outside `where`.
+
+    A foot's clearance is the lower of its toe's and its ankle's heights above their ground levels
+    (`point_grounds`, as the contacts and `pivots` read them). The floor lets each foot come no closer to the ground than the
+    reference's does at the same moment, up to `EXIT_HEIGHT_OF_LEG` (where a foot leaves contact): each
+    point at its ground level plus that clearance. A change laid on such legs (the style's statistics) may
+    lower a swinging foot until it skims or sinks through the floor the reference's foot clears; the floor
+    keeps the reference's clearance near the ground, leaves every higher part of the swing to the change,
+    and does not lift a heel that strikes flatter than the reference's (its clearance is already the
+    heel's)."""
+    reference = with_foot_tips(reference)  # a toe-less foot's End Site as its toe
+    limbs = find_limbs(reference.skeleton)
+    if len(limbs.toes) == 0:  # no feet to hold
+        return np.zeros((reference.num_frames, 0), dtype=bool), np.zeros((reference.num_frames, 0, 2))
+    positions = reference.positions(limbs.feet)
+    contacts = detect_contacts(reference, positions) & where[:, None]
+    heights = positions[:, contact_points(limbs), 1]  # (T, F, 2) toe, ankle
+    grounds = point_grounds(heights)  # (1, 1, 2)
+    clearance = np.min(heights - grounds, axis=-1, keepdims=True)  # (T, F, 1)
+    floor = grounds + np.minimum(clearance, EXIT_HEIGHT_OF_LEG * leg_length(reference.skeleton, limbs))
+    return contacts, np.where(where[:, None, None], floor, -np.inf)
