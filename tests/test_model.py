@@ -31,6 +31,9 @@ def test_numpy_forward_matches_torch(tied: bool) -> None:
     features = x[0].T.numpy()
     np.testing.assert_allclose(numpy_model.encode(features), latents_torch, atol=1e-5)
     np.testing.assert_allclose(numpy_model.decode(latents_torch), output_torch, atol=1e-5)
+    # decoded at chosen frames only (the out-of-depth check's every third), the ends' zero padding included
+    frames = np.array([0, 1, 7, 45, 88, 89])
+    np.testing.assert_allclose(numpy_model.decode(latents_torch, frames), output_torch[frames], atol=1e-5)
 
 
 @pytest.fixture(scope="module")

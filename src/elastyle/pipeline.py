@@ -174,13 +174,14 @@ def transfer(
     # features and encode: the content's latents (T, Z) and the root path a transfer keeps
     content_latents, root = model.encode_motion(working)
     # check that the model can represent this content (a warning when far worse than its held-out takes)
-    error_cm = reconstruction_error_cm(model, working, content_latents, root)
+    world = working.world()  # (T, J, 3, 3), (T, J, 3): for this check and the action channels
+    error_cm = reconstruction_error_cm(model, working, content_latents, root, world[1])
     warning = depth_warning(model, error_cm, content_name)
     if warning is not None:
         _say(notes, warning)
     # whiten, match, place, cross-fade and colour: one track per style library on a content-time grid
     grid = content_grid(working.num_frames)  # (G,) content frames
-    actions = action_channels(working)  # (T, A) what the body does, matched beside the latents
+    actions = action_channels(working, world)  # (T, A) what the body does, matched beside the latents
     if not config.reverse_style and walks_backwards(actions):
         _say(notes, (
             f"note: {content_name} walks backwards; the style's forward steps will not match its legs, which "

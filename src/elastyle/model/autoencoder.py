@@ -14,7 +14,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from elastyle.core.smoothing import pad_edges
 from elastyle.model.config import ModelConfig
-from elastyle.types import AnyFloatArray, Float32Array
+from elastyle.types import AnyFloatArray, Float32Array, IntArray
 
 
 class AutoencoderWeights(NamedTuple):
@@ -69,6 +69,21 @@ def _conv_transpose_same(h: Float32Array, taps: Float32Array, kernel: int) -> Fl
     return out[pad : pad + num_frames]
 
 
+def _conv_transpose_at(h: Float32Array, taps: Float32Array, kernel: int, frames: IntArray) -> Float32Array:
+    """`_conv_transpose_same` at output frames (n,) only: y[t] = sum_k h[t + pad - k] W[:, :, k], one product
+    of each frame's K input rows (n, K * C_out) with the taps (K * C_out, C_in) -> (n, C_in)."""
+    pad = kernel // 2
+    width = h.shape[1]
+    padded = np.concatenate(
+        [np.zeros((kernel - 1 - pad, width), h.dtype), h, np.zeros((pad, width), h.dtype)]
+    )
+    rows = frames[:, None] + (kernel - 1) - np.arange(kernel)  # (n, K): h[t + pad - k] in `padded`
+    weights = (
+        taps.reshape(width, kernel, -1).transpose(1, 0, 2).reshape(kernel * width, -1)
+    )  # (K * C_out, C_in)
+    return padded[rows].reshape(len(frames), -1) @ weights
+
+
 class Autoencoder:
     """encode: normalised features (T, C) -> latents (T, Z); decode: latents -> features."""
 
@@ -84,15 +99,22 @@ class Autoencoder:
         hidden = np.maximum(_conv_same(features.astype(np.float32), w.conv1, w.bias1), 0.0)  # (T, H)
         return np.maximum(_conv_same(hidden, w.conv2, w.bias2), 0.0)  # (T, Z)
 
-    def decode(self, latents: AnyFloatArray) -> Float32Array:
+    def decode(self, latents: AnyFloatArray, frames: IntArray | None = None) -> Float32Array:
+        """Latents (T, Z) -> features (T, C), or (n, C) at output frames (n,) only."""
         w = self.weights
         latents = latents.astype(np.float32)
         second, first = self._decoder_taps
         kernel = w.conv1.shape[2]
+
+        def last_layer(hidden: Float32Array) -> Float32Array:
+            if frames is None:
+                return _conv_transpose_same(hidden, first, kernel)
+            return _conv_transpose_at(hidden, first, kernel, frames)
+
         if self.config.tied:
             # the report's inverse: subtract the bias, then the transposed convolution with the same weights
             hidden = np.maximum(_conv_transpose_same(latents - w.bias2, second, 1), 0.0)  # (T, H)
-            return _conv_transpose_same(hidden - w.bias1, first, kernel)  # (T, C)
+            return last_layer(hidden - w.bias1)  # (T, C)
         assert w.debias2 is not None and w.debias1 is not None
         hidden = np.maximum(_conv_transpose_same(latents, second, 1) + w.debias2, 0.0)
-        return _conv_transpose_same(hidden, first, kernel) + w.debias1
+        return last_layer(hidden) + w.debias1

@@ -29,15 +29,26 @@ DEFAULT_WARN_CM = 3.0  # for model files written before calibration was recorded
 EVERY_FRAMES = 3  # the error is measured on every third frame: the same figure for a third of the cost
 
 
-def reconstruction_error_cm(model: StyleModel, motion: Motion, latents: FloatArray, root: RootPath) -> float:
+def reconstruction_error_cm(
+    model: StyleModel,
+    motion: Motion,
+    latents: FloatArray,
+    root: RootPath,
+    positions: FloatArray | None = None,
+) -> float:
     """Mean joint position error (cm, relative to the pelvis) of a clip at the model's frame rate (T frames)
-    read back from its own latents (T, Z) on its own root path, over every `EVERY_FRAMES`-th frame."""
+    read back from its own latents (T, Z) on its own root path, over every `EVERY_FRAMES`-th frame.
+    positions: the clip's world positions (T, J, 3) (`Motion.positions`), when already known."""
     frames = np.arange(0, motion.num_frames, EVERY_FRAMES)
-    features = model.decode_latents(latents)[frames]
+    features = model.decode_latents(latents, frames=frames)
     decoded = model.features.decode(features, root.sample(frames.astype(np.float64)), model.fps)
     pelvis = motion.skeleton.pelvis
-    sampled = Motion(motion.skeleton, motion.rotations[frames], motion.translations[frames], motion.fps)
-    ours, theirs = sampled.positions(), decoded.positions()
+    if positions is None:
+        sampled = Motion(motion.skeleton, motion.rotations[frames], motion.translations[frames], motion.fps)
+        ours = sampled.positions()
+    else:
+        ours = positions[frames]
+    theirs = decoded.positions()
     error = (theirs - theirs[:, pelvis : pelvis + 1]) - (ours - ours[:, pelvis : pelvis + 1])
     return float(np.sqrt(np.sum(error**2, axis=-1)).mean() * centimetres_per_unit(motion.skeleton))
 

@@ -29,7 +29,7 @@ from elastyle.io.files import input_problem, write_bytes_atomic
 from elastyle.model.autoencoder import Autoencoder, AutoencoderWeights
 from elastyle.model.config import ModelConfig
 from elastyle.model.features import FeatureSpec, RootPath
-from elastyle.types import FloatArray
+from elastyle.types import FloatArray, IntArray
 
 FORMAT_VERSION = 1
 PRETRAINED_NAME = "bandai-namco-2.npz"
@@ -120,8 +120,13 @@ class StyleModel:
         features, root = self.features.encode(motion)
         return self.autoencoder.encode(self.normalise(features)).astype(np.float64), root
 
-    def decode_latents(self, latents: FloatArray, smooth_s: float = 0.0) -> FloatArray:
-        """Features (T, C) from latents (T, Z), low-passed along time by a Gaussian of `smooth_s` seconds."""
+    def decode_latents(
+        self, latents: FloatArray, smooth_s: float = 0.0, frames: IntArray | None = None
+    ) -> FloatArray:
+        """Features (T, C) from latents (T, Z), low-passed along time by a Gaussian of `smooth_s` seconds;
+        frames: only these output frames (n,) -> (n, C), unsmoothed."""
+        if frames is not None:
+            return self.denormalise(self.autoencoder.decode(latents, frames).astype(np.float64))
         features = self.denormalise(self.autoencoder.decode(latents).astype(np.float64))
         return smooth(features, smooth_s * self.fps)
 

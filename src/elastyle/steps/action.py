@@ -39,11 +39,15 @@ def action_width(skeleton: Skeleton) -> int:
     return 3 + 4 * len(limbs.hands) + len(limbs.ankles)
 
 
-def action_channels(motion: Motion) -> FloatArray:
-    """(T, A) action descriptors of a clip; A = 3 + 4 hands + feet (see the module's table)."""
+def action_channels(motion: Motion, world: tuple[FloatArray, FloatArray] | None = None) -> FloatArray:
+    """(T, A) action descriptors of a clip; A = 3 + 4 hands + feet (see the module's table). world: the
+    clip's world rotations and positions (`Motion.world`) of at least the pelvis, hands and ankles, when
+    already known."""
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     leg = leg_length(skeleton, limbs)  # half the body's height without legs
-    world_rotations, positions = motion.world([skeleton.pelvis, *limbs.hands, *limbs.ankles])
+    world_rotations, positions = (
+        motion.world([skeleton.pelvis, *limbs.hands, *limbs.ankles]) if world is None else world
+    )
     pelvis = positions[:, skeleton.pelvis]  # (T, 3)
     yaw = heading_yaw(world_rotations[:, skeleton.pelvis], pelvis_forward_local(skeleton))  # (T,)
     to_heading = np.swapaxes(yaw_matrices(yaw), -1, -2)  # (T, 3, 3) world -> heading frame
