@@ -140,6 +140,24 @@ def test_glb_in_reads_back_what_glb_out_wrote(three_channel_bvh: Path, tmp_path:
     np.testing.assert_allclose(read_bvh(again)[0].positions(), motion.positions() * scale, atol=1e-5)
 
 
+@pytest.mark.parametrize("seconds, fps", [(70.0, 30.0), (18.0, 120.0), (None, 24.0)])
+def test_long_and_one_frame_glb_read_back(three_channel_bvh: Path, tmp_path: Path, seconds, fps) -> None:  # type: ignore[no-untyped-def]
+    """A clip over a minute at 30 fps (or 16 s at 120) has float32 keyframe times that stray from an even grid
+    by more than the reader allowed, and a one-frame clip's times say no frame rate: both were written and
+    then refused ('not evenly spaced')."""
+    from elastyle.io.dataset import read_clip
+
+    motion, _ = read_bvh(three_channel_bvh)
+    count = 1 if seconds is None else int(seconds * fps)
+    index = np.arange(count) % motion.num_frames
+    clip = Motion(motion.skeleton, motion.rotations[index], motion.translations[index], fps)
+    path = tmp_path / "clip.glb"
+    write_clip(path, clip)
+    back, _ = read_clip(path)
+    assert back.num_frames == count and back.fps == fps
+    np.testing.assert_allclose(back.positions(), clip.positions() * metres_per_unit(clip), atol=1e-6)
+
+
 def test_a_damaged_glb_is_one_line(three_channel_bvh: Path, tmp_path: Path) -> None:
     motion, _ = read_bvh(three_channel_bvh)
     path = tmp_path / "cut.glb"

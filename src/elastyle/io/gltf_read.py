@@ -68,9 +68,7 @@ def parse_glb(data: bytes, name: str) -> Motion:
     rest_rotations = np.array([node.rotation or [0.0, 0.0, 0.0, 1.0] for node in nodes], dtype=np.float64)
     animation = document.animations[0]
     times = _accessor(document, animation.samplers[animation.channels[0].sampler].input, name)[:, 0]
-    steps = np.diff(times)
-    if len(times) < 2 or steps.min() <= 0 or steps.max() - steps.min() > 1e-4 * steps.mean() + 1e-6:
-        raise BvhError(name, "the animation's keyframes are not evenly spaced frames")
+    fps = _frame_rate(times, animation.extras, name)
     frames = len(times)
     rotations = np.broadcast_to(from_quat(rest_rotations), (frames, len(joints), 3)).copy()
     translations = np.broadcast_to(offsets, (frames, len(joints), 3)).copy()
@@ -97,7 +95,28 @@ def parse_glb(data: bytes, name: str) -> Motion:
     # which this reader does not apply): then the unit is guessed, or stated with --units, as for a BVH
     scaled = any(node.scale is not None and list(node.scale) != [1.0, 1.0, 1.0] for node in document.nodes)
     skeleton = Skeleton(names, parents, offsets, end_sites, unit_cm=None if scaled else UNITS["m"])
-    return Motion(skeleton, rotations, translations, frame_rate(float(steps.mean())))
+    return Motion(skeleton, rotations, translations, fps)
+
+
+# keyframe times may stray this share of a frame from an even grid: float32 times of an hour at 120 fps
+# stray under 2 % of a frame (their rounding), a dropped or doubled frame 50 % or more
+SPACING_TOLERANCE = 0.1
+ONE_FRAME_FPS = 30.0  # the frame rate of a one-frame animation that does not state one
+
+
+def _frame_rate(times: FloatArray, extras: Any, name: str) -> float:
+    """The frame rate of keyframe times (N,) evenly spaced (a `BvhError` otherwise); a one-frame animation's
+    from its `extras.fps` (elastyle writes it), else `ONE_FRAME_FPS`."""
+    stated = extras.get("fps") if isinstance(extras, dict) else None
+    if len(times) == 0:
+        raise BvhError(name, "the animation has no keyframes")
+    if len(times) == 1:
+        return float(stated) if isinstance(stated, (int, float)) and stated > 0 else ONE_FRAME_FPS
+    step = (times[-1] - times[0]) / (len(times) - 1)
+    grid = times[0] + step * np.arange(len(times))
+    if step <= 0 or np.max(np.abs(times - grid)) > SPACING_TOLERANCE * step:
+        raise BvhError(name, "the animation's keyframes are not evenly spaced frames")
+    return frame_rate(float(step))
 
 
 def _accessor(document: Any, accessor_index: int, name: str) -> FloatArray:

@@ -81,7 +81,10 @@ def glb_bytes(motion: Motion) -> bytes:
                 inverseBindMatrices=blob.add(inverse_bind.reshape(-1, 16), gl.MAT4),
             )
         ],
-        animations=[gl.Animation(name="motion", channels=channels, samplers=samplers)],
+        # the frame rate also as a number: a one-frame clip's keyframe times cannot say it
+        animations=[
+            gl.Animation(name="motion", channels=channels, samplers=samplers, extras={"fps": motion.fps})
+        ],
         accessors=blob.accessors,
         bufferViews=blob.views,
         buffers=[gl.Buffer(byteLength=len(blob.data))],
