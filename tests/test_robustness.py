@@ -18,7 +18,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from elastyle import BvhError, read_bvh, write_bvh
+from elastyle import BvhError, Motion, read_bvh, write_bvh
 from elastyle.io.bvh_read import parse_bvh
 from elastyle.io.dataset import ClipRef
 from tests.conftest import THREE_CHANNEL_BVH, clip_named
@@ -666,6 +666,24 @@ def test_eval_refuses_a_one_frame_clip_and_gives_undefined_figures_as_such(
     assert figures["cadence_content_steps_s"] is None and figures["cadence_style_steps_s"] > 0
     text = _cli("eval", str(wave), "--content", str(wave), "--style", str(style))
     assert "n/a" in text.stdout and "nan" not in text.stdout
+    # a one-second walk holds less than a step cycle, a content that holds still no jitter to compare with:
+    # n/a (before, a cadence read from the clip's length and a jitter ratio of 1e12)
+    short, still = tmp_path / "short.bvh", tmp_path / "still.bvh"
+    write_bvh(short, motion.slice(0, 31), layout)
+    index = np.zeros(60, dtype=np.int64)
+    write_bvh(
+        still,
+        Motion(motion.skeleton, motion.rotations[index], motion.translations[index], motion.fps),
+        layout,
+    )
+    figures = json.loads(
+        _cli("eval", str(short), "--content", str(short), "--style", str(style), "--json").stdout
+    )
+    assert figures["cadence_content_steps_s"] is None and figures["timing_error"] is None
+    figures = json.loads(
+        _cli("eval", str(walk), "--content", str(still), "--style", str(style), "--json").stdout
+    )
+    assert figures["jitter_vs_content"] is None and figures["cadence_output_steps_s"] > 0
 
 
 def test_convert_mirror_names_the_file_and_warns_of_a_side_without_its_partner(

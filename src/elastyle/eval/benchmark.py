@@ -136,7 +136,7 @@ def score_pairs(
         "skating_own_contacts_cm_s": float(
             np.nanmedian([f["skating_own_contacts_output_cm_s"] for f in figures])
         ),
-        "jitter_vs_content": float(np.median([f["jitter_vs_content"] for f in figures])),
+        "jitter_vs_content": float(np.nanmedian([f["jitter_vs_content"] for f in figures])),
         "bone_length_error_cm": float(np.max([f["bone_length_error_cm"] for f in figures])),
         "seconds_per_transfer": float(np.mean(seconds)),
     }

@@ -65,6 +65,9 @@ def jerk(positions: FloatArray, fps: float) -> float:
     return float(np.linalg.norm(third, axis=-1).mean())
 
 
+MIN_CYCLES = 2.0  # a frequency is read only where the clip holds at least this many cycles of it
+
+
 def _dominant_frequency_hz(
     signal: FloatArray, fps: float, low_hz: float = 0.3, high_hz: float = 3.0
 ) -> float:
@@ -76,7 +79,9 @@ def _dominant_frequency_hz(
     spectrum = np.abs(np.fft.rfft(windowed, n=size))
     frequencies = np.fft.rfftfreq(size, 1.0 / fps)
     band = (frequencies >= low_hz) & (frequencies <= high_hz)
-    return float(frequencies[band][np.argmax(spectrum[band])])
+    found = float(frequencies[band][np.argmax(spectrum[band])])
+    # a clip shorter than a few cycles of it holds no rhythm to read (a 1 s clip's "cadence" was its length)
+    return found if signal.shape[0] / fps * found >= MIN_CYCLES else float("nan")
 
 
 def _lateral_difference(motion: Motion, positions: FloatArray, left: int, right: int) -> FloatArray:

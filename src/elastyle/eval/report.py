@@ -15,6 +15,10 @@ from elastyle.eval.metrics import (
     timing_error,
 )
 
+STILL_JERK_CM_S3 = (
+    1.0  # a content whose joints' mean jerk is below this (cm/s^3) holds still; motion: 1e3 to 1e5
+)
+
 
 def bone_length_error_cm(motion: Motion, reference: Motion) -> float:
     """Largest difference (cm) between a bone's length in `motion` and in `reference` (first frames), each
@@ -46,9 +50,12 @@ def transfer_figures(output: Motion, content: Motion, style: Motion) -> dict[str
         figures[f"arm_swing_{name}_hz"] = arm_swing_hz(motion, positions[name])
         figures[f"skating_{name}_cm_s"] = floor_skating_cm_s(motion, positions[name])
         figures[f"skating_own_contacts_{name}_cm_s"] = foot_skating_cm_s(motion, positions[name])
-    figures["jitter_vs_content"] = jerk(
-        positions["output"] * centimetres_per_unit(output.skeleton), output.fps
-    ) / max(jerk(positions["content"] * centimetres_per_unit(content.skeleton), content.fps), 1e-9)
+    content_jerk = jerk(positions["content"] * centimetres_per_unit(content.skeleton), content.fps)
+    output_jerk = jerk(positions["output"] * centimetres_per_unit(output.skeleton), output.fps)
+    # a content that holds still has no jitter to compare with (its jerk is rounding): n/a
+    figures["jitter_vs_content"] = (
+        output_jerk / content_jerk if content_jerk > STILL_JERK_CM_S3 else float("nan")
+    )
     figures["bone_length_error_cm"] = bone_length_error_cm(output, content)
     figures["duration_output_s"] = output.duration_s
     figures["duration_content_s"] = content.duration_s
