@@ -313,6 +313,34 @@ def test_the_models_skeleton_under_other_names_transfers_as_it_does(
     assert any("joint names differ from the model's" in note for note in renamed.explain["notes"])
 
 
+@pytest.mark.parametrize("scheme", ["cmu"])
+def test_eval_compares_clips_under_other_names_with_the_models_own(
+    walk: Motion, dataset_clips: list[ClipRef], tmp_path: Path, scheme: str
+) -> None:
+    """A transfer's output and content under another naming scheme and a style under the model's names: eval
+    reads all three on the model's joints, with the figures of the same clips under the model's names
+    (before, it refused them: 'skeleton differs from the content')."""
+    from elastyle.pipeline import transfer
+
+    style = clip_named(dataset_clips, "dataset-2_walk_active_010").read()[0]
+    output = transfer(walk, style).motion
+    files = {}
+    for name, motion in (("output", output), ("content", walk), ("style", style)):
+        for form, clip in (("own", motion), ("renamed", _renamed(motion, scheme))):
+            files[name, form] = tmp_path / f"{name}_{form}.bvh"
+            write_bvh(files[name, form], clip)
+    figures = {}
+    for form in ("own", "renamed"):
+        done = _cli(
+            "eval", str(files["output", form]), "--content", str(files["content", form]),
+            "--style", str(files["style", "own"]), "--json",
+        )  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        figures[form] = json.loads(done.stdout)
+    assert figures["renamed"]["skating_output_cm_s"] == pytest.approx(figures["own"]["skating_output_cm_s"])
+    assert figures["renamed"]["timing_error"] == pytest.approx(figures["own"]["timing_error"])
+
+
 def _without_root(motion: Motion) -> Motion:
     """The clip as an exporter that makes the pelvis the ROOT writes it: the joint above dropped (where it
     moves, as in some of the dataset's clips, its motion taken into the pelvis's)."""

@@ -115,7 +115,7 @@ def run_eval(args: argparse.Namespace) -> int:
     # so that every export of one rig gives the same figures and a transfer's inputs and output compare
     readable = [_read_by(model, clip, path) for clip, path in zip(clips, paths)]
     output, content, style = (
-        model.on_model_hierarchy(clip) if reads else clip for clip, reads in zip(clips, readable)
+        _on_model_joints(model, clip) if reads else clip for clip, reads in zip(clips, readable)
     )
     # the figures compare the three clips joint by joint: one skeleton, as a transfer keeps it
     content.skeleton.check_same(output.skeleton, f"the content {args.content}", args.output)
@@ -136,6 +136,18 @@ def run_eval(args: argparse.Namespace) -> int:
             )
     _print_figures(figures, args.json)
     return 0
+
+
+def _on_model_joints(model: StyleModel, motion: Motion) -> Motion:
+    """A clip the model reads, on the model's joints under the model's names (a clip under other names,
+    `mixamorig:Hips`, compares with one under the model's own)."""
+    from dataclasses import replace
+
+    from elastyle.core.motion import Motion
+
+    on_model = model.on_model_hierarchy(motion)
+    named = replace(on_model.skeleton, names=model.skeleton.names)
+    return Motion(named, on_model.rotations, on_model.translations, on_model.fps)
 
 
 def _read_by(model: StyleModel, motion: Motion, path: str) -> bool:
