@@ -773,3 +773,36 @@ def test_a_style_whose_names_do_not_pair_is_mirrored_by_the_models_names(model, 
     assert renamed.skeleton.unpaired_sides() == ["Paw_L", "Hand_R"]
     ours, theirs = prepare_style(model, [renamed]), prepare_style(model, [original])
     np.testing.assert_array_equal(ours.latents, theirs.latents)
+
+
+def test_a_root_motion_joint_above_a_rotation_only_pelvis_keeps_the_transfers_pelvis_moves(
+    walk: Motion, dataset_clips: list[ClipRef], tmp_path: Path
+) -> None:
+    """A file whose top joint carries the travel (6 channels) and every other joint, the pelvis too, only
+    rotations: the foot clean-up moves the pelvis, and the written file holds those moves (the pelvis gets
+    position channels, with a note) where before they were dropped (feet 53 cm off the transfer's)."""
+    from elastyle import BvhLayout
+    from elastyle.pipeline import transfer
+
+    skeleton = walk.skeleton
+    hips = skeleton.pelvis
+    assert skeleton.parents[hips] == 0 and np.allclose(walk.rotations[:, 0], 0)
+    translations = walk.translations.copy()
+    translations[:, 0] += walk.translations[:, hips] - skeleton.offsets[hips]  # the travel on the top joint
+    translations[:, hips] = skeleton.offsets[hips]
+    moved_up = Motion(skeleton, walk.rotations, translations, walk.fps)
+    np.testing.assert_allclose(moved_up.positions()[:, 1:], walk.positions()[:, 1:], atol=1e-9)  # the body
+    rotations = ("Zrotation", "Xrotation", "Yrotation")
+    layout = BvhLayout(
+        (("Xposition", "Yposition", "Zposition", *rotations), *[rotations] * (skeleton.num_joints - 1)),
+        1.0 / walk.fps,
+    )
+    content, style = tmp_path / "root_motion.bvh", tmp_path / "style.bvh"
+    write_bvh(content, moved_up, layout)
+    write_bvh(style, clip_named(dataset_clips, "dataset-2_walk_active_010").read()[0])
+    out = tmp_path / "out.bvh"
+    done = _cli("transfer", str(content), "--style", str(style), "-o", str(out))
+    assert done.returncode == 0, done.stderr
+    assert f"note: {out}: Hips moves in this clip but had no position channels" in done.stderr
+    expected = transfer(read_bvh(content)[0], read_bvh(style)[0]).motion
+    np.testing.assert_allclose(read_bvh(out)[0].positions(), expected.positions(), atol=1e-4)

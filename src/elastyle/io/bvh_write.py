@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import logging
 import os
 from pathlib import Path
 
@@ -12,16 +13,23 @@ from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.up import turned_back
 from elastyle.errors import BvhError, UsageError
-from elastyle.io.bvh_layout import BvhLayout, channel_columns, first_rotation_values
+from elastyle.io.bvh_layout import POSITION_CHANNELS, BvhLayout, channel_columns, first_rotation_values
 from elastyle.io.euler import rotvec_to_euler
 from elastyle.io.files import write_text_atomic
 from elastyle.types import FloatArray
 
+log = logging.getLogger(__name__)
+
 
 def bvh_text(motion: Motion, layout: BvhLayout | None = None) -> str:
-    """The BVH text of a clip, in `layout` (hierarchy, channel orders, End Sites, up axis) when given."""
+    """The BVH text of a clip, in `layout` (hierarchy, channel orders, End Sites, up axis) when given; a
+    joint that moves in the clip but has no position channels in the layout gets them (`placed_layout`)."""
     skeleton = motion.skeleton
-    layout = layout or BvhLayout.default(skeleton, motion.fps, _animated_joints(motion))
+    layout = (
+        placed_layout(motion, layout)[0]
+        if layout
+        else BvhLayout.default(skeleton, motion.fps, _animated_joints(motion))
+    )
     motion = turned_back(motion, layout.up)  # as its file stands (clips are read turned to +Y up)
     if len(layout.channels) != skeleton.num_joints:
         raise ValueError(f"layout has {len(layout.channels)} joints, the clip {skeleton.num_joints}")
@@ -33,11 +41,36 @@ def bvh_text(motion: Motion, layout: BvhLayout | None = None) -> str:
     return out.getvalue()
 
 
-def _animated_joints(motion: Motion) -> list[int]:
-    """Joints below the root whose local translations (T, J, 3) leave their bone offsets in some frame (a
-    joint that moves, or a root some exporter placed below a static joint): they need position channels."""
+def _animated_joints(motion: Motion, tolerance: float = 1e-9) -> list[int]:
+    """Joints below the root whose local translations (T, J, 3) leave their bone offsets by more than
+    `tolerance` (file units) in some frame (a joint that moves, or a root some exporter placed below a
+    static joint): they need position channels."""
     away = np.abs(motion.translations[:, 1:] - motion.skeleton.offsets[1:])  # (T, J - 1, 3)
-    return [joint + 1 for joint in np.flatnonzero(np.any(away > 1e-9, axis=(0, 2))).tolist()]
+    return [joint + 1 for joint in np.flatnonzero(np.any(away > tolerance, axis=(0, 2))).tolist()]
+
+
+def placed_layout(motion: Motion, layout: BvhLayout) -> tuple[BvhLayout, list[int]]:
+    """`layout` with position channels added (before its rotation channels) to each joint that moves in the
+    clip but has none there, and those joints: a file whose root-motion joint above the pelvis carries the
+    translation, the pelvis only rotations, gets the pelvis's moves a transfer makes (the foot clean-up's),
+    which were dropped."""
+    missing = [
+        joint for joint in _animated_joints(motion, 1e-6)
+        if joint < len(layout.channels) and not set(POSITION_CHANNELS) & set(layout.channels[joint])
+    ]  # fmt: skip
+    if not missing:
+        return layout, []
+    channels = [
+        (*POSITION_CHANNELS, *joint_channels) if joint in missing else joint_channels
+        for joint, joint_channels in enumerate(layout.channels)
+    ]
+    first = layout.first_values
+    if len(first) == len(layout.channels) and motion.num_frames:
+        first = tuple(
+            (*motion.translations[0, joint].tolist(), *values) if joint in missing else values
+            for joint, values in enumerate(first)
+        )
+    return layout._replace(channels=tuple(channels), first_values=first), missing
 
 
 def _format_rows(values: FloatArray) -> str:
@@ -94,7 +127,22 @@ def write_bvh(
             "elastyle.write_clip(path, motion)"
         )
     refuse_non_finite(path, motion)
-    write_text_atomic(path, bvh_text(motion, layout), force=force, inputs=inputs)
+    write_text_atomic(path, bvh_text(motion, layout_for(path, motion, layout)), force=force, inputs=inputs)
+
+
+def layout_for(path: str | os.PathLike[str], motion: Motion, layout: BvhLayout | None) -> BvhLayout | None:
+    """The layout `motion` is written in at `path`: `layout` with position channels where the clip moves a
+    joint that has none (`placed_layout`), said in a note naming the file and the joints."""
+    if layout is None:
+        return None
+    layout, placed = placed_layout(motion, layout)
+    if placed:
+        names = ", ".join(motion.skeleton.names[joint] for joint in placed)
+        log.warning(
+            "note: %s: %s moves in this clip but had no position channels in the file it came from: written "
+            "with them", path, names,
+        )  # fmt: skip
+    return layout
 
 
 def check_clip_argument(motion: object) -> None:
