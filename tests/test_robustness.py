@@ -425,6 +425,47 @@ def test_eval_refuses_wrong_arguments_before_any_work(tmp_path: Path, dataset_cl
     result = _cli("eval", "--benchmark", str(few), "--pairs", "1")
     assert result.returncode == 1 and "classifiers need training takes" in result.stderr, result.stderr
     assert result.stderr.count("elastyle: error:") == 1 and "Traceback" not in result.stderr
+    # clips of another skeleton than the model's (toes dropped): one line naming a clip and what differs
+    # (before, an IndexError from the classifiers)
+    other = tmp_path / "other"
+    other.mkdir()
+    for stem in ("dataset-2_raise-up-both-hands_normal_005", "dataset-2_raise-up-both-hands_active_010"):
+        write_bvh(other / f"{stem}.bvh", _without_toes(clip_named(dataset_clips, stem).read()[0]))
+    result = _cli("eval", "--benchmark", str(other), "--pairs", "1")
+    assert (
+        result.returncode == 1
+        and "skeleton differs from the model (only in the model: Toes_L" in result.stderr
+    )
+    assert result.stderr.count("elastyle: error:") == 1 and "Traceback" not in result.stderr
+
+
+def _without_toes(motion: Motion) -> Motion:
+    """The clip on its skeleton without the toe joints (leaves): another skeleton than the model's."""
+    from elastyle import Skeleton
+
+    skeleton = motion.skeleton
+    keep = [j for j, name in enumerate(skeleton.names) if not name.startswith("Toes")]
+    new_index = {old: new for new, old in enumerate(keep)}
+    parents = np.array([new_index.get(int(skeleton.parents[j]), -1) for j in keep])
+    subset = Skeleton(
+        tuple(skeleton.names[j] for j in keep), parents, skeleton.offsets[keep], skeleton.end_sites[keep]
+    )
+    return Motion(subset, motion.rotations[:, keep], motion.translations[:, keep], motion.fps)
+
+
+@pytest.mark.slow
+def test_eval_benchmark_json_is_strict_json(tmp_path: Path, data_path: Path) -> None:
+    """`eval --benchmark --json` prints the report as JSON (it printed the Markdown table), undefined
+    figures as null."""
+    import json
+
+    result = _cli("eval", "--benchmark", str(data_path), "--pairs", "1", "--json")
+    assert result.returncode == 0, result.stderr
+    def refuse(constant: str) -> None:
+        raise AssertionError(f"{constant} is not strict JSON")
+
+    report = json.loads(result.stdout, parse_constant=refuse)
+    assert {"pairs", "rows", "classifier_held_out_accuracy"} <= report.keys()
 
 
 def test_content_folders_globs_and_a_refused_batch(tmp_path: Path, dataset_clips: list[ClipRef]) -> None:

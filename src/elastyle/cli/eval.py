@@ -42,7 +42,7 @@ def add_eval_commands(commands: Any) -> None:
     evaluate.add_argument("--model", help="model file (default: the shipped model)")
     add_units_flag(evaluate)
     evaluate.add_argument("--out", help="folder for benchmark.json and benchmark.md")
-    evaluate.add_argument("--json", action="store_true", help="print figures as JSON")
+    evaluate.add_argument("--json", action="store_true", help="print figures (or the --benchmark report) as JSON")
     evaluate.add_argument(
         "--force", action="store_true", help="overwrite benchmark.json and benchmark.md in --out"
     )
@@ -93,10 +93,10 @@ def run_eval(args: argparse.Namespace) -> int:
         model = load_model(args.model)
         report = run_benchmark(args.benchmark, model, args.pairs)
         table = markdown_table(report)
-        print(table)
+        print(json.dumps(_strict(report), indent=1) if args.json else table)
         if folder is not None:
             folder.mkdir(parents=True, exist_ok=True)
-            write_text_atomic(folder / "benchmark.json", json.dumps(report, indent=1), force=args.force)
+            write_text_atomic(folder / "benchmark.json", json.dumps(_strict(report), indent=1), force=args.force)
             write_text_atomic(folder / "benchmark.md", table, force=args.force)
         return 0
     if not (args.output and args.content and args.style):
@@ -160,6 +160,17 @@ def _read_by(model: StyleModel, motion: Motion, path: str) -> bool:
     if note is not None:
         log.info("%s", note)
     return True
+
+
+def _strict(value: Any) -> Any:
+    """A report with every NaN or infinite number as None (null in strict JSON)."""
+    if isinstance(value, dict):
+        return {key: _strict(item) for key, item in value.items()}
+    if isinstance(value, list):
+        return [_strict(item) for item in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
 
 
 def _print_figures(figures: dict[str, float], as_json: bool) -> None:
