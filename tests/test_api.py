@@ -122,3 +122,31 @@ def test_clips_print_briefly(content: Motion) -> None:
         repr(content)
         == "Motion(267 frames at 30 fps, Skeleton(22 joints: joint_Root, Hips, Spine, Chest, ...))"
     )
+
+
+def test_a_prepared_library_brings_its_model_and_its_clips(
+    model, content: Motion, style_clip: Motion
+) -> None:  # type: ignore[no-untyped-def]
+    """A library prepared with one model is used with it (before: silently with the shipped model, a wrong
+    result, or a bare numpy error for another shape); given another model that encodes otherwise, or
+    options its clips contradict (mirror_style=False with mirrored clips), a ConfigError says so."""
+    from dataclasses import replace
+
+    other = replace(model, feature_mean=model.feature_mean + 0.05)  # the same shape, another encoding
+    library = prepare_style(other, [style_clip])
+    assert library.model is other
+    own = transfer(content, library).motion
+    np.testing.assert_array_equal(own.rotations, transfer(content, library, model=other).motion.rotations)
+    shipped = transfer(content, style_clip).motion  # the shipped model's: another output
+    assert own.num_frames != shipped.num_frames or not np.allclose(own.rotations, shipped.rotations)
+    with pytest.raises(ConfigError, match="prepared with another model"):
+        transfer(content, library, model=model)
+    with pytest.raises(
+        ConfigError, match="mirror_style=False, but the style library was prepared with mirrored"
+    ):
+        transfer(content, prepare_style(model, [style_clip]), mirror_style=False)
+    with pytest.raises(ConfigError, match="reverse_style=True, but the style library was prepared without"):
+        transfer(content, prepare_style(model, [style_clip]), reverse_style=True)
+    unmirrored = prepare_style(model, [style_clip], mirror_style=False)
+    assert not any(unmirrored.mirrored)
+    transfer(content, unmirrored)  # the default options accept a library prepared without mirrors

@@ -461,6 +461,7 @@ def test_eval_benchmark_json_is_strict_json(tmp_path: Path, data_path: Path) -> 
 
     result = _cli("eval", "--benchmark", str(data_path), "--pairs", "1", "--json")
     assert result.returncode == 0, result.stderr
+
     def refuse(constant: str) -> None:
         raise AssertionError(f"{constant} is not strict JSON")
 

@@ -103,7 +103,8 @@ def transfer(
         a transition from `style` to `second_style`, constant for a blend).
     part_styles: body part names (`core.parts`: legs, spine, left-arm, right-arm, arms) and the style
         whose manner those parts take instead (on the output's one clock, which `style` sets).
-    model: a `StyleModel` (`load_model`) or a model file's path; None: the shipped model.
+    model: a `StyleModel` (`load_model`) or a model file's path; None: the model that prepared a given
+        `StyleLibrary`, else the shipped model.
     style_names, second_style_names: one name per style clip, for notes and the explain record.
     content_name: the content's name in notes and errors.
     Returns a `TransferResult`: the output clip on the content's skeleton at its frame rate (its length
@@ -117,6 +118,9 @@ def transfer(
         raise ConfigError("second_weight is the share of second_style, and no second_style is given")
     _check_clip_type(content, "content")
     check_finite_clip(content, content_name)
+    if model is None:  # a prepared library's own model, unless another is given
+        inputs = (style, second_style, *(part_styles or {}).values())
+        model = next((s.model for s in inputs if isinstance(s, StyleLibrary) and s.model is not None), None)
     model = as_model(model)
     renamed = model.check_clip(content, content_name)
     original = content  # the output is on its skeleton

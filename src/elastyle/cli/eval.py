@@ -42,7 +42,9 @@ def add_eval_commands(commands: Any) -> None:
     evaluate.add_argument("--model", help="model file (default: the shipped model)")
     add_units_flag(evaluate)
     evaluate.add_argument("--out", help="folder for benchmark.json and benchmark.md")
-    evaluate.add_argument("--json", action="store_true", help="print figures (or the --benchmark report) as JSON")
+    evaluate.add_argument(
+        "--json", action="store_true", help="print figures (or the --benchmark report) as JSON"
+    )
     evaluate.add_argument(
         "--force", action="store_true", help="overwrite benchmark.json and benchmark.md in --out"
     )
@@ -96,7 +98,9 @@ def run_eval(args: argparse.Namespace) -> int:
         print(json.dumps(_strict(report), indent=1) if args.json else table)
         if folder is not None:
             folder.mkdir(parents=True, exist_ok=True)
-            write_text_atomic(folder / "benchmark.json", json.dumps(_strict(report), indent=1), force=args.force)
+            write_text_atomic(
+                folder / "benchmark.json", json.dumps(_strict(report), indent=1), force=args.force
+            )
             write_text_atomic(folder / "benchmark.md", table, force=args.force)
         return 0
     if not (args.output and args.content and args.style):

@@ -6,11 +6,13 @@ pelvis forward axis, normalisation mean/std, weights, and a JSON metadata string
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import weakref
 import zipfile
 from dataclasses import asdict, dataclass, field
+from functools import cached_property
 from io import BytesIO
 from pathlib import Path
 from typing import Any
@@ -54,6 +56,19 @@ class StyleModel:
     @property
     def skeleton(self) -> Skeleton:
         return self.features.skeleton
+
+    @cached_property
+    def encoding_fingerprint(self) -> str:
+        """A digest of everything encoding reads (normalisation, reference rotations, encoder weights, shape,
+        frame rate, joints): style libraries encoded by models with the same one are the same."""
+        digest = hashlib.sha256()
+        weights = self.autoencoder.weights
+        for array in (
+            self.feature_mean, self.feature_std, self.features.reference_rotations, weights.conv1, weights.conv2
+        ):  # fmt: skip
+            digest.update(np.ascontiguousarray(array).tobytes())
+        digest.update(repr((self.config, self.fps, self.skeleton.names)).encode())
+        return digest.hexdigest()
 
     def at_model_size(self, motion: Motion) -> tuple[Motion, float]:
         """The clip scaled to the model's unit and size (`core.body.size_factor`), and the factor."""

@@ -39,21 +39,6 @@ def cache_folder() -> Path:
     return Path(os.environ.get("ELASTYLE_CACHE") or Path.home() / ".cache" / "elastyle") / "libraries"
 
 
-def model_fingerprint(model: StyleModel) -> str:
-    digest = hashlib.sha256()
-    weights = model.autoencoder.weights
-    for array in (
-        model.feature_mean,
-        model.feature_std,
-        model.features.reference_rotations,
-        weights.conv1,
-        weights.conv2,
-    ):
-        digest.update(np.ascontiguousarray(array).tobytes())
-    digest.update(repr((model.config, model.fps, model.skeleton.names)).encode())
-    return digest.hexdigest()
-
-
 # 2: one BLAS thread; 3: action descriptors; 4: their ground by nearest sample; 5: clips at the model's size; 6: the root path
 # smoothed to the clip's ends (`core.smoothing.smooth_path`: the latents near its ends change); 7: clips standing
 # along +Z read turned to +Y up (`core.up`), the reading's --up in the key; 8: a clip read under other joint names
@@ -67,7 +52,7 @@ def library_key(
 ) -> str:
     reverse = ":backwards" if reverse_style else ""  # libraries without reversed clips keep their keys
     digest = hashlib.sha256(
-        f"v{FORMAT_VERSION}.{CACHE_VERSION}:{model_fingerprint(model)}:{mirror_style}{reverse}:up-{read_up()}".encode()
+        f"v{FORMAT_VERSION}.{CACHE_VERSION}:{model.encoding_fingerprint}:{mirror_style}{reverse}:up-{read_up()}".encode()
     )
     for clip in clips:
         digest.update(clip.name.encode())
@@ -102,7 +87,7 @@ def load_library(
                 notes = list(zip(archive["note_levels"].tolist(), archive["notes"].tolist()))
                 library = StyleLibrary.of_latents(
                     names, [bool(m) for m in archive["mirrored"]], [latents[a:b] for a, b in spans],
-                    [actions[a:b] for a, b in spans], backwards,
+                    [actions[a:b] for a, b in spans], backwards, model,
                 )  # fmt: skip
             log.debug("style library from cache %s", path)
             _say(notes)

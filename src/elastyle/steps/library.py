@@ -31,7 +31,7 @@ log = logging.getLogger(__name__)
 class StyleLibrary:
     """Encoded style clips: names, mirrored and played-backwards flags (K,), clip_starts (K,) library
     frames, latents (N, Z) and action descriptors (N, A) (`steps.action`) end to end, and the latents'
-    pooled statistics."""
+    pooled statistics; model: the model that encoded them (a transfer uses it unless told another)."""
 
     names: list[str]
     mirrored: list[bool]
@@ -40,6 +40,7 @@ class StyleLibrary:
     actions: FloatArray
     stats: LatentStats
     backwards: list[bool] = field(default_factory=list)
+    model: StyleModel | None = None
     _white: dict[float, FloatArray] = field(default_factory=dict)
     _windows: dict[tuple[int, float, float, int], StyleWindows] = field(default_factory=dict)
     _derived: dict[Hashable, Any] = field(default_factory=dict)
@@ -85,13 +86,14 @@ class StyleLibrary:
         latents: Sequence[FloatArray],
         actions: Sequence[FloatArray],
         backwards: Sequence[bool] | None = None,
+        model: StyleModel | None = None,
     ) -> StyleLibrary:
         """A library from each clip's latents (T_k, Z) and action descriptors (T_k, A); `backwards`: which
-        clips are played backwards (none by default)."""
+        clips are played backwards (none by default); model: the one that encoded them."""
         starts = np.cumsum([0] + [z.shape[0] for z in latents[:-1]]).astype(np.int64)
         return StyleLibrary(
             list(names), list(mirrored), starts, np.concatenate(latents), np.concatenate(actions),
-            LatentStats.of(latents), list(backwards) if backwards is not None else [False] * len(names),
+            LatentStats.of(latents), list(backwards) if backwards is not None else [False] * len(names), model,
         )  # fmt: skip
 
 
@@ -140,7 +142,9 @@ def prepare_style(
         backwards += [True] * (len(clips) - len(backwards))
     latents = [model.encode_motion(m)[0] for _, _, m in clips]
     actions = [action_channels(m) for _, _, m in clips]
-    return StyleLibrary.of_latents([c[0] for c in clips], [c[1] for c in clips], latents, actions, backwards)
+    return StyleLibrary.of_latents(
+        [c[0] for c in clips], [c[1] for c in clips], latents, actions, backwards, model
+    )
 
 
 def _mirrored_by_model_names(model: StyleModel, motion: Motion) -> Motion:
@@ -168,8 +172,9 @@ def as_library(
     mirror_style: bool,
     reverse_style: bool = False,
 ) -> StyleLibrary:
-    """A prepared library as it is; one clip or several clips encoded into one."""
+    """A prepared library as it is (`check_prepared` first); one clip or several clips encoded into one."""
     if isinstance(style, StyleLibrary):
+        check_prepared(style, model, mirror_style, reverse_style)
         return style
     if isinstance(style, (str, bytes, os.PathLike)):
         raise TypeError(
@@ -184,6 +189,26 @@ def as_library(
     return prepare_style(
         model, [style] if isinstance(style, Motion) else list(style), names, mirror_style, reverse_style
     )
+
+
+def check_prepared(library: StyleLibrary, model: StyleModel, mirror_style: bool, reverse_style: bool) -> None:
+    """A `ConfigError` where a prepared library does not fit the transfer: encoded by a model that encodes
+    otherwise than `model`, or with mirrored or backwards clips that the options refuse, or without the
+    backwards clips they ask for (a library's clips are chosen when it is prepared)."""
+    if library.model is not None and library.model.encoding_fingerprint != model.encoding_fingerprint:
+        raise ConfigError(
+            "the style library was prepared with another model than the transfer's: prepare it with the same "
+            "model, or give that one (transfer(..., model=library.model))"
+        )
+    for asked, name, flags, kind in (
+        (mirror_style, "mirror_style", library.mirrored, "mirrored"),
+        (reverse_style, "reverse_style", library.backwards, "backwards"),
+    ):
+        if (not asked and any(flags)) or (asked and name == "reverse_style" and not any(flags)):
+            raise ConfigError(
+                f"{name}={asked}, but the style library was prepared {'with' if any(flags) else 'without'} "
+                f"{kind} clips: prepare it with prepare_style(..., {name}={asked})"
+            )
 
 
 def _check_style_clips(motions: Sequence[Motion]) -> None:
