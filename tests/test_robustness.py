@@ -760,3 +760,32 @@ def test_a_zip_where_one_clip_belongs_is_named_as_such(tmp_path: Path) -> None:
     result = _cli("convert", str(archive), "-o", str(tmp_path / "a.bvh"))
     assert result.returncode == 1 and "Traceback" not in result.stderr
     assert "clips.zip: a zip archive, not a BVH file: name one clip inside it" in result.stderr
+
+
+def test_output_folders_that_are_files_all_failed_batches_and_a_skipped_single_output(
+    tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
+    """-o FILE/ where FILE is a file: one line saying so (it was a raw '[Errno 17] File exists'); a batch
+    whose every clip fails leaves no empty folder behind; --skip-existing leaves one content's existing
+    output (it refused it: 'already exists')."""
+    walk, style = _dataset_copies(
+        tmp_path, dataset_clips, ["dataset-2_walk_normal_005", "dataset-2_walk_active_010"]
+    )
+    afile = tmp_path / "afile"
+    afile.write_text("mine")
+    for contents in ([walk], [walk, walk.with_name("other.bvh")]):
+        result = _cli("transfer", *map(str, contents), "--style", str(style), "-o", f"{afile}/")
+        assert result.returncode == 1 and f"{afile}: a file, not a folder" in result.stderr, result.stderr
+    assert afile.read_text() == "mine"
+    bad = [tmp_path / "bad1.bvh", tmp_path / "bad2.bvh"]
+    for path in bad:
+        path.write_text("HIERARCHY\nROOT Hips\n{\n")
+    result = _cli("transfer", *map(str, bad), "--style", str(style), "-o", f"{tmp_path / 'out'}/")
+    assert result.returncode == 1 and "0 of 2 clips transferred" in result.stderr, result.stderr
+    assert not (tmp_path / "out").exists()
+    result = _cli("transfer", str(bad[0]), "--style", str(style), "-o", f"{tmp_path / 'one'}/")
+    assert result.returncode == 1 and not (tmp_path / "one").exists()
+    existing = tmp_path / "existing.bvh"
+    existing.write_text("mine")
+    result = _cli("transfer", str(walk), "--style", str(style), "-o", str(existing), "--skip-existing")
+    assert result.returncode == 0 and existing.read_text() == "mine", result.stderr

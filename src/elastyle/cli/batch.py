@@ -11,7 +11,8 @@ from __future__ import annotations
 import json
 import logging
 import sys
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -108,22 +109,33 @@ def _worker_transfer(task: tuple[str, Path]) -> bytes | str:
     return transfer_task(_WORKER_JOB[0], *task)
 
 
-def make_output_folder(targets: list[Path]) -> None:
-    """The outputs' folder, made once the command has checked everything (a refused command leaves none)."""
-    if targets:
-        targets[0].parent.mkdir(exist_ok=True)
+@contextmanager
+def output_folder(targets: list[Path]) -> Iterator[None]:
+    """The outputs' folder, made once the command has checked everything, and removed again where the
+    command leaves it empty (every clip failed): a refused or failed command leaves none."""
+    folder = targets[0].parent if targets else None
+    made = folder is not None and not folder.exists()
+    if folder is not None:
+        folder.mkdir(exist_ok=True)
+    try:
+        yield
+    finally:
+        if made and folder is not None and folder.is_dir() and not any(folder.iterdir()):
+            folder.rmdir()
 
 
 def run_local(job: Job, contents: list[str], targets: list[Path], jobs: int | None) -> int:
     """Many content clips on `jobs` processes of this computer (every core by default)."""
-    make_output_folder(targets)
     import multiprocessing
     import os
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     workers = max(1, min(len(contents), jobs or os.cpu_count() or 1))
     context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
-    with ProcessPoolExecutor(workers, mp_context=context, initializer=_worker_start, initargs=(job,)) as pool:
+    with (
+        output_folder(targets),
+        ProcessPoolExecutor(workers, mp_context=context, initializer=_worker_start, initargs=(job,)) as pool,
+    ):
         futures = {pool.submit(_worker_transfer, task): task for task in zip(contents, targets)}
         return _write_all(job, as_completed(futures), futures, lambda future: future.result())
 
@@ -149,8 +161,7 @@ def run_on_dask(job: Job, contents: list[str], targets: list[Path], address: str
         client = Client(address, timeout=f"{CONNECT_TIMEOUT_S}s")
     except (OSError, TimeoutError) as error:
         raise ElastyleError(f"{address}: cannot reach the Dask scheduler ({error})") from None
-    with client:
-        make_output_folder(targets)
+    with client, output_folder(targets):
 
         def scatter() -> Any:
             """One future for the whole job (a tuple given to scatter is scattered field by field)."""

@@ -8,7 +8,7 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from elastyle.cli.batch import Job, make_output_folder, require_dask, run_local, run_on_dask, transfer_one
+from elastyle.cli.batch import Job, output_folder, require_dask, run_local, run_on_dask, transfer_one
 from elastyle.cli.options import add_config_flags, add_units_flag, config_from_args
 from elastyle.core.motion import Motion
 from elastyle.errors import BvhError, OutputError, SkeletonMismatchError, UsageError
@@ -73,7 +73,7 @@ def add_transfer_command(commands: Any) -> None:
     parser.add_argument(
         "--skip-existing",
         action="store_true",
-        help="several content clips: leave outputs that exist (resume)",
+        help="leave outputs that exist (resume a batch; for one content clip, its output)",
     )
     parser.add_argument("--force", action="store_true", help="overwrite existing output files")
     parser.set_defaults(run=run_transfer)
@@ -89,8 +89,13 @@ def _outputs(args: argparse.Namespace) -> tuple[list[str], list[Path]]:
         raise UsageError("-o/--output is empty; give a file name (or DIR/ for several content clips)")
     output = Path(args.output)
     as_folder = args.output.endswith(("/", "\\")) or output.is_dir()
+    if as_folder and output.exists() and not output.is_dir():
+        raise OutputError(f"{output}: a file, not a folder; give a folder for the outputs (-o DIR/)")
     if len(contents) == 1 and not as_folder:
         check_output_format(output)
+        if args.skip_existing and not args.force and output.exists():
+            log.info("note: %s exists and is skipped (--skip-existing)", output)
+            return [], []
         return contents, [check_output_path(output, force=args.force, inputs=inputs)]
     if not as_folder:
         raise UsageError(f"{args.output}: several content clips need an output folder: -o {args.output}/")
@@ -235,8 +240,8 @@ def run_transfer(args: argparse.Namespace) -> int:
     if not contents:  # every output exists and --skip-existing leaves them
         return 0
     if len(args.content) == 1:
-        make_output_folder(targets)
-        transfer_one(job, contents[0], targets[0])
+        with output_folder(targets):
+            transfer_one(job, contents[0], targets[0])
         return 0
     if args.scheduler:
         return run_on_dask(job, contents, targets, args.scheduler)
