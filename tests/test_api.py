@@ -150,3 +150,18 @@ def test_a_prepared_library_brings_its_model_and_its_clips(
     unmirrored = prepare_style(model, [style_clip], mirror_style=False)
     assert not any(unmirrored.mirrored)
     transfer(content, unmirrored)  # the default options accept a library prepared without mirrors
+
+
+def test_writing_in_the_layout_of_another_skeleton_is_an_elastyle_error(
+    content: Motion, walk_clip, tmp_path: Path
+) -> None:  # type: ignore[no-untyped-def]
+    """A layout from a file of another joint count: a SkeletonMismatchError (an ElastyleError, one line on
+    the command line) before anything is written; it was a bare ValueError."""
+    from elastyle import BvhLayout, SkeletonMismatchError
+
+    _, layout = walk_clip.read()
+    other = BvhLayout(layout.channels[:-1], layout.frame_time_s)  # a file of one joint fewer
+    target = tmp_path / "out.bvh"
+    with pytest.raises(SkeletonMismatchError, match="the layout is a file's of 21 joints, the clip has 22"):
+        write_bvh(target, content, other)
+    assert not target.exists()

@@ -89,6 +89,11 @@ def test_training_resumes_from_checkpoint(trained, tmp_path: Path, data_path: Pa
     )
     # resumed at the checkpoint's step 300 with a budget of 300: no step taken, the checkpoint's weights
     assert resumed.metadata["steps"] == 300
+    # a checkpoint given where a model belongs is named as one (it read as 'no format_version')
+    with pytest.raises(
+        ModelError, match="a training checkpoint, not a model: `elastyle train CLIPS -o MODEL.npz --resume"
+    ):
+        load_model(checkpoint)
     np.testing.assert_array_equal(resumed.autoencoder.weights.conv1, model.autoencoder.weights.conv1)
     # the command line resumes with the settings the checkpoint records, where no flag says otherwise (a
     # model trained with --recipe shipped was refused when resumed without it)

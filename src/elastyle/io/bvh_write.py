@@ -12,7 +12,7 @@ import numpy as np
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.up import turned_back
-from elastyle.errors import BvhError, UsageError
+from elastyle.errors import BvhError, SkeletonMismatchError, UsageError
 from elastyle.io.bvh_layout import POSITION_CHANNELS, BvhLayout, channel_columns, first_rotation_values
 from elastyle.io.euler import rotvec_to_euler
 from elastyle.io.files import write_text_atomic
@@ -25,14 +25,17 @@ def bvh_text(motion: Motion, layout: BvhLayout | None = None) -> str:
     """The BVH text of a clip, in `layout` (hierarchy, channel orders, End Sites, up axis) when given; a
     joint that moves in the clip but has no position channels in the layout gets them (`placed_layout`)."""
     skeleton = motion.skeleton
+    if layout is not None and len(layout.channels) != skeleton.num_joints:
+        raise SkeletonMismatchError(
+            f"the layout is a file's of {len(layout.channels)} joints, the clip has {skeleton.num_joints}: write "
+            "a clip in the layout of the file it was read from (read_bvh's), or without one"
+        )
     layout = (
         placed_layout(motion, layout)[0]
         if layout
         else BvhLayout.default(skeleton, motion.fps, _animated_joints(motion))
     )
     motion = turned_back(motion, layout.up)  # as its file stands (clips are read turned to +Y up)
-    if len(layout.channels) != skeleton.num_joints:
-        raise ValueError(f"layout has {len(layout.channels)} joints, the clip {skeleton.num_joints}")
     out = io.StringIO()
     out.write("HIERARCHY\n")
     written = _write_joint(out, skeleton, layout, 0, 0)  # the joints in file order

@@ -283,6 +283,11 @@ def load_model(path: str | os.PathLike[str] | None = None) -> StyleModel:
         kind = "not an .npz archive" if isinstance(error, ValueError) else f"truncated or foreign: {error}"
         raise ModelError(f"{path}: not an elastyle model file ({kind})") from None
     if "format_version" not in data:
+        if Path(path).suffix.lower() == ".ckpt" or any(key.endswith("data.pkl") for key in data):
+            raise ModelError(
+                f"{path}: a training checkpoint, not a model: `elastyle train CLIPS -o MODEL.npz --resume {path}` "
+                "continues it, and the model is the file it writes"
+            )
         raise ModelError(f"{path}: not an elastyle model file (no format_version)")
     version = int(data["format_version"])
     if version != FORMAT_VERSION:

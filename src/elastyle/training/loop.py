@@ -132,6 +132,14 @@ def train(
             network.load_state_dict(state["network"])
             optimizer.load_state_dict(state["optimizer"])
         except (RuntimeError, ValueError, KeyError):
+            settings = recorded_config(state)
+            if (
+                settings is not None and settings.model == config.model
+            ):  # the same shape: the skeleton differs
+                raise ElastyleError(
+                    f"{resume}: a checkpoint trained on clips of another skeleton than these; resume it with the "
+                    "clips it was trained on, or start over"
+                ) from None
             raise ElastyleError(
                 f"{resume}: a checkpoint of another model shape or skeleton; resume with the options it was "
                 "trained with (--recipe, --hidden, --latent, --kernel, --untied, the same clips' skeleton), or "
