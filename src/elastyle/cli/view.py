@@ -68,7 +68,8 @@ def run_render(args: argparse.Namespace) -> int:
     num_frames = render_clips(
         motions, labels, args.output, fps=args.fps, force=args.force, progress=not args.no_progress
     )
-    log.info("wrote %s (%d frames, %d clips)", args.output, num_frames, len(motions))
+    clips = f"{len(motions)} clip{'' if len(motions) == 1 else 's'}"
+    log.info("wrote %s (%d frames, %s)", args.output, num_frames, clips)
     return 0
 
 
