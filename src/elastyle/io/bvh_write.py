@@ -44,12 +44,11 @@ def bvh_text(motion: Motion, layout: BvhLayout | None = None) -> str:
     return out.getvalue()
 
 
-def _animated_joints(motion: Motion, tolerance: float = 1e-9) -> list[int]:
-    """Joints below the root whose local translations (T, J, 3) leave their bone offsets by more than
-    `tolerance` (file units) in some frame (a joint that moves, or a root some exporter placed below a
-    static joint): they need position channels."""
+def _animated_joints(motion: Motion) -> list[int]:
+    """Joints below the root whose local translations (T, J, 3) leave their bone offsets in some frame (a
+    joint that moves, or a root some exporter placed below a static joint): they need position channels."""
     away = np.abs(motion.translations[:, 1:] - motion.skeleton.offsets[1:])  # (T, J - 1, 3)
-    return [joint + 1 for joint in np.flatnonzero(np.any(away > tolerance, axis=(0, 2))).tolist()]
+    return [joint + 1 for joint in np.flatnonzero(np.any(away > 1e-9, axis=(0, 2))).tolist()]
 
 
 def placed_layout(motion: Motion, layout: BvhLayout) -> tuple[BvhLayout, list[int]]:
@@ -57,10 +56,13 @@ def placed_layout(motion: Motion, layout: BvhLayout) -> tuple[BvhLayout, list[in
     clip but has none there, and those joints: a file whose root-motion joint above the pelvis carries the
     translation, the pelvis only rotations, gets the pelvis's moves a transfer makes (the foot clean-up's),
     which were dropped."""
-    missing = [
-        joint for joint in _animated_joints(motion, 1e-6)
-        if joint < len(layout.channels) and not set(POSITION_CHANNELS) & set(layout.channels[joint])
-    ]  # fmt: skip
+    unplaced = [
+        j for j in range(1, len(layout.channels)) if not POSITION_CHANNELS.keys() & set(layout.channels[j])
+    ]
+    if not unplaced:  # every joint has position channels (the common case): nothing to look at
+        return layout, []
+    away = np.abs(motion.translations[:, unplaced] - motion.skeleton.offsets[unplaced])  # (T, U, 3)
+    missing = [joint for joint, moves in zip(unplaced, np.any(away > 1e-6, axis=(0, 2))) if moves]
     if not missing:
         return layout, []
     channels = [
