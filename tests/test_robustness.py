@@ -789,3 +789,24 @@ def test_output_folders_that_are_files_all_failed_batches_and_a_skipped_single_o
     existing.write_text("mine")
     result = _cli("transfer", str(walk), "--style", str(style), "-o", str(existing), "--skip-existing")
     assert result.returncode == 0 and existing.read_text() == "mine", result.stderr
+
+
+@pytest.mark.slow
+def test_training_clips_of_one_skeleton_under_two_namings_train_together(
+    tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
+    """A training folder whose clips are one skeleton, some exported with `mixamorig:` names: trained as one
+    skeleton under the first clip's names, with a note (it was refused: 'skeleton differs'), as a transfer
+    reads such clips."""
+    stems = ["dataset-2_walk_normal_001", "dataset-2_walk_active_001", "dataset-2_run_normal_001"]
+    folder = tmp_path / "clips"
+    _dataset_copies(folder, dataset_clips, stems)
+    renamed = folder / stems[-1].replace("normal", "renamed")
+    text = (folder / f"{stems[-1]}.bvh").read_text()
+    for name in read_bvh(folder / f"{stems[-1]}.bvh")[0].skeleton.names:
+        text = re.sub(rf"(ROOT|JOINT) {re.escape(name)}\b", rf"\1 mixamorig:{name}", text)
+    renamed.with_suffix(".bvh").write_text(text)
+    model = tmp_path / "m.npz"
+    result = _cli("train", str(folder), "-o", str(model), "--steps", "2")
+    assert result.returncode == 0, result.stderr
+    assert "name their joints otherwise than" in result.stderr and model.exists()

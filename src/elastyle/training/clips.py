@@ -1,16 +1,20 @@
-"""The training clips: read in parallel at one frame rate, checked to share one skeleton and rest pose, and
-brought to one size."""
+"""The training clips: read in parallel at one frame rate, checked to share one skeleton (under one naming)
+and rest pose, and brought to one size."""
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
 
-from elastyle.core.body import at_size_of, same_rest_pose
+from elastyle.core.body import at_size_of, same_rest_pose, same_structure
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
 from elastyle.errors import SkeletonMismatchError
 from elastyle.io.dataset import ClipRef, read_up
+
+log = logging.getLogger(__name__)
 
 
 def _read_resampled(task: tuple[ClipRef, float | None, str]) -> Motion:
@@ -30,23 +34,35 @@ def load_motions(
             motions = list(pool.map(_read_resampled, tasks, chunksize=16))
     else:
         motions = [_read_resampled(t) for t in tasks]
-    if motions:
-        check_one_skeleton(motions[0].skeleton, clips[0].name, clips, motions)
-    return motions
+    return on_one_skeleton(motions[0].skeleton, clips[0].name, clips, motions) if motions else motions
 
 
-def check_one_skeleton(
+def on_one_skeleton(
     skeleton: Skeleton, reference: str, clips: Sequence[ClipRef], motions: Sequence[Motion]
-) -> None:
+) -> list[Motion]:
     """Every clip on `skeleton`, that of clip `reference`: its joints and its rest pose (a model learns
-    rotations from one rest pose); a one-line `SkeletonMismatchError` naming the first clip that differs."""
+    rotations from one rest pose); a clip that is that skeleton under other joint names (`mixamorig:Hips`,
+    `core.body.same_structure`) is read under its names, said in a note; a one-line
+    `SkeletonMismatchError` names the first clip that differs otherwise."""
+    result, renamed = [], []
     for clip, motion in zip(clips, motions):
+        if not skeleton.same_as(motion.skeleton) and same_structure(skeleton, motion.skeleton):
+            renamed.append(clip.name)
+            named = replace(motion.skeleton, names=skeleton.names)
+            motion = Motion(named, motion.rotations, motion.translations, motion.fps)
         skeleton.check_same(motion.skeleton, reference, clip.name)
         if not same_rest_pose(skeleton, motion.skeleton):
             raise SkeletonMismatchError(
                 f"{clip.name}: the joints of {reference}, but another rest pose (its bones point other ways at "
                 "rest, so its rotations mean other poses): export every training clip in one rest pose"
             )
+        result.append(motion)
+    if renamed:
+        log.warning(
+            "note: %d clip(s) (%s%s) name their joints otherwise than %s but are its skeleton: read under its "
+            "names", len(renamed), ", ".join(renamed[:3]), ", ..." if len(renamed) > 3 else "", reference,
+        )  # fmt: skip
+    return result
 
 
 def at_one_size(motions: list[Motion], reference: Skeleton) -> list[Motion]:

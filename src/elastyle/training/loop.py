@@ -27,7 +27,7 @@ from elastyle.model.depth import DEFAULT_WARN_CM, calibrate
 from elastyle.model.features import FeatureSpec
 from elastyle.model.file import StyleModel, save_model
 from elastyle.training.checkpoint import StopOnInterrupt, read_checkpoint, recorded_config, save_checkpoint
-from elastyle.training.clips import at_one_size, check_one_skeleton, load_motions
+from elastyle.training.clips import at_one_size, load_motions, on_one_skeleton
 from elastyle.training.config import TrainConfig
 from elastyle.training.rate import LearningRate, spent_fraction
 from elastyle.training.windows import draw_speed, perturb_windows, sample_windows
@@ -76,7 +76,7 @@ def train(
     train_motions = load_motions(training, fps)
     val_motions = load_motions(held_out, fps) if held_out else []
     skeleton = train_motions[0].skeleton
-    check_one_skeleton(skeleton, training[0].name, held_out, val_motions)
+    val_motions = on_one_skeleton(skeleton, training[0].name, held_out, val_motions)
     train_motions, val_motions = at_one_size(train_motions, skeleton), at_one_size(val_motions, skeleton)
     # a clip shorter than the convolution holds no window the model can learn from
     kernel = config.model.kernel_frames
