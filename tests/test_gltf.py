@@ -129,6 +129,8 @@ def test_glb_in_reads_back_what_glb_out_wrote(three_channel_bvh: Path, tmp_path:
     np.testing.assert_array_equal(back.skeleton.parents, motion.skeleton.parents)
     np.testing.assert_allclose(back.positions(), motion.positions() * scale, atol=1e-6)
     np.testing.assert_allclose(back.skeleton.end_sites, motion.skeleton.end_sites * scale, atol=1e-6)
+    # the rest pose kept: a moving joint's offset is its bone's, not its first frame's place
+    np.testing.assert_allclose(back.skeleton.offsets, motion.skeleton.offsets * scale, atol=1e-6)
     assert layout.channels[0][:3] == ("Xposition", "Yposition", "Zposition")
     again = tmp_path / "again.bvh"
     result = subprocess.run(

@@ -33,10 +33,12 @@ def glb_bytes(motion: Motion) -> bytes:
     blob = _Blob()
     translations = motion.translations * scale  # (T, J, 3)
     quats = continuous_quats(to_quat(motion.rotations), axis=0)  # (T, J, 4) x, y, z, w
+    moving = np.ptp(translations, axis=0).max(axis=-1) > 0  # (J,) joints whose translation is animated
+    # a joint's own translation: its bone offset where a track animates it (so the file keeps the rest pose:
+    # a BVH read back from it has the pelvis's offset, not its first frame's place), else its one value
+    rest = np.where(moving[:, None], skeleton.offsets * scale, translations[0])  # (J, 3)
     nodes = [
-        gl.Node(
-            name=name, translation=_floats(translations[0, j]), rotation=_floats(quats[0, j]), children=[]
-        )
+        gl.Node(name=name, translation=_floats(rest[j]), rotation=_floats(quats[0, j]), children=[])
         for j, name in enumerate(skeleton.names)
     ]
     for joint, parent in enumerate(skeleton.parents):
@@ -54,7 +56,7 @@ def glb_bytes(motion: Motion) -> bytes:
     channels, samplers = [], []
     for joint in range(skeleton.num_joints):
         tracks = [("rotation", quats[:, joint], gl.VEC4)]
-        if np.ptp(translations[:, joint], axis=0).max() > 0:
+        if moving[joint]:
             tracks.append(("translation", translations[:, joint], gl.VEC3))
         for path, values, kind in tracks:
             samplers.append(
