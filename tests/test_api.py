@@ -165,3 +165,33 @@ def test_writing_in_the_layout_of_another_skeleton_is_an_elastyle_error(
     with pytest.raises(SkeletonMismatchError, match="the layout is a file's of 21 joints, the clip has 22"):
         write_bvh(target, content, other)
     assert not target.exists()
+
+
+def test_the_explain_record_on_the_content_clock_and_with_its_settings(
+    model, content: Motion, style_clip: Motion
+) -> None:  # type: ignore[no-untyped-def]
+    """With timing='content' each patch's output time is its content time (it was the style clock's: a last
+    patch at 7.0 s of an 8.9 s output); style starts in seconds too; the timing, strength and a transition
+    recorded; a style clip shorter than a patch in a library, a short --style-part clip and short patches
+    noted in the record (they were silent, or printed and not recorded)."""
+    from elastyle import prepare_style
+
+    record = transfer(content, style_clip, model=model, timing="content", strength="0:0,2:1").explain
+    rows = record["styles"][0]["patches"]
+    assert all(row["output_start_s"] == row["content_start_s"] for row in rows)
+    assert all(
+        row["style_start_s"] == round(row["style_start_frame"] / record["model_fps"], 4) for row in rows
+    )
+    assert record["timing"] == "content" and record["strength"] == "0:0,2:1"
+    walked = transfer(
+        content, style_clip, model=model, second_style=style_clip, second_weight="2:0,3:1"
+    ).explain
+    assert walked["second_weight"] == {"times_s": [2.0, 3.0], "values": [0.0, 1.0]}
+    short = style_clip.slice(0, 15)  # half a second
+    library = prepare_style(model, [short, style_clip], names=["short", "long"])
+    notes = transfer(content, library).explain["notes"]
+    assert any(note.startswith("note: short: shorter than a patch") for note in notes)
+    parted = transfer(content, style_clip, model=model, part_styles={"arms": [short]}).explain["notes"]
+    assert any("style0: the style clips are at most 0.50 s long" in note for note in parted)
+    tiny = transfer(content, style_clip, model=model, patch_s=0.2).explain["notes"]
+    assert any(note.startswith("warning: --patch-s 0.2: windows under 0.5 s") for note in tiny)

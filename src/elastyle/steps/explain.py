@@ -10,7 +10,7 @@ import numpy as np
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.library import StyleLibrary
 from elastyle.steps.timeline import GRID_STEP
-from elastyle.steps.track import StyleTrack, requested_patch_frames, shortened_patch_note
+from elastyle.steps.track import StyleTrack, patch_notes
 from elastyle.types import FloatArray
 
 
@@ -21,7 +21,9 @@ def explain(
     fps: float,
     config: TransferConfig,
 ) -> dict[str, Any]:
-    """Per output patch: its style clip (mirrored or not), start frame, stretch factor, similarity, times,
+    """Per output patch: its style clip (mirrored or not), start (frames at the model's rate, and seconds),
+    stretch factor, similarity, times (the output's on the output's clock: the content's with `--timing
+    content`),
     and how it was used (mode: swap; statistics where the fallback took over; content where the legs and
     spine keep the content's action; blend between them), with per body part the action mismatch (the
     legs' turning difference and gait mismatch, each arm's hand offset and rhythm difference too), the share
@@ -57,7 +59,12 @@ def explain(
             }
             for part, measures in track.measures.items():
                 parts[part] |= {name: round(float(values[index]), 3) for name, values in measures.items()}
-            start_out = float(np.searchsorted(content_time, patch.content_start)) / fps
+            # where the patch starts in the output: on its own clock, or the content's (--timing content)
+            start_out = (
+                patch.content_start / fps
+                if config.timing == "content"
+                else float(np.searchsorted(content_time, patch.content_start)) / fps
+            )
             rows.append(
                 {
                     "output_start_s": round(start_out, 4),
@@ -65,7 +72,8 @@ def explain(
                     "style_clip": library.names[clip],
                     "style_mirrored": library.mirrored[clip],
                     "style_backwards": library.backwards[clip],
-                    "style_start_frame": frame,
+                    "style_start_frame": frame,  # frames at model_fps, as the style's clip was read
+                    "style_start_s": round(frame / fps, 4),
                     "style_frames": track.patch_frames,
                     "stretch": round(patch.content_frames / track.patch_frames, 4),
                     "similarity": round(patch.similarity, 4),
@@ -77,8 +85,7 @@ def explain(
         entry: dict[str, Any] = {"clips": sorted(set(library.names)), "patches": rows}
         if track.patch_frames:
             entry["patch_s_used"] = round(track.patch_frames / fps, 4)
-            if track.patch_frames < requested_patch_frames(config, fps):
-                notes.append(shortened_patch_note(track.patch_frames, config, fps))
+            notes += [text for _, text in patch_notes(library, track.patch_frames, config, fps)]
         styles.append(entry)
     return {
         "method": config.method,
@@ -95,11 +102,18 @@ def explain(
         "arm_offset_above": config.arm_offset_above,
         "arm_rhythm_above": config.arm_rhythm_above,
         "keep_part": config.keep_part,
+        "timing": config.timing,
+        "strength": _strength(config),  # a number, or keyframes in content seconds ('SECONDS:VALUE,...')
         "model_fps": fps,
         "model_rate_frames": int(len(content_time)),  # the output's timeline at model_fps
         "styles": styles,
         "notes": notes,
     }
+
+
+def _strength(config: TransferConfig) -> float | str:
+    schedule = config.strength_schedule
+    return float(schedule.values[0]) if len(schedule.values) == 1 else schedule.text()
 
 
 def _part_share(track: StyleTrack, part: str, span: slice, config: TransferConfig) -> float:

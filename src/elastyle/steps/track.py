@@ -67,12 +67,34 @@ def requested_patch_frames(config: TransferConfig, fps: float) -> int:
     return max(int(round(config.patch_s * fps)), MIN_PATCH_FRAMES)
 
 
-def shortened_patch_note(patch_frames: int, config: TransferConfig, fps: float) -> str:
-    """The one-line note for patches shortened to the longest style clip."""
-    return (
-        f"the style clips are at most {patch_frames / fps:.2f} s long, so patches are {patch_frames / fps:.2f} s "
-        f"instead of --patch-s {config.patch_s:g}"
-    )
+def patch_notes(
+    library: StyleLibrary, patch_frames: int, config: TransferConfig, fps: float
+) -> list[tuple[int, str]]:
+    """The notes (logging level, text) on a library's patches of `patch_frames`: patches shortened to its
+    longest clip (a warning below `SHORT_PATCH_SHARE` of --patch-s, where the output may step or slide), and
+    clips shorter than a patch, none of whose windows can be matched."""
+    notes = []
+    names = ", ".join(dict.fromkeys(library.names))
+    if patch_frames < requested_patch_frames(config, fps):
+        shortened = (
+            f"{names}: the style clips are at most {patch_frames / fps:.2f} s long, so patches are "
+            f"{patch_frames / fps:.2f} s instead of --patch-s {config.patch_s:g}"
+        )
+        if patch_frames < SHORT_PATCH_SHARE * requested_patch_frames(config, fps):
+            notes.append((logging.WARNING, (
+                f"warning: {shortened}; windows this short carry little of a style's manner and the output may "
+                "step or slide oddly: give a style clip at least as long as --patch-s"
+            )))  # fmt: skip
+        else:
+            notes.append((logging.INFO, f"note: {shortened}"))
+    lengths = np.diff(np.append(library.clip_starts, library.latents.shape[0]))  # (K,) frames
+    short = list(dict.fromkeys(n for n, length in zip(library.names, lengths) if length < patch_frames))
+    if short:
+        notes.append((logging.WARNING, (
+            f"note: {', '.join(short)}: shorter than a patch ({patch_frames / fps:.2f} s), so none of its windows "
+            "is matched; it adds only to the style's statistics"
+        )))  # fmt: skip
+    return notes
 
 
 def style_track(
@@ -107,14 +129,8 @@ def style_track(
             f"{names}: too short for a patch ({library.longest_clip} frame(s) at {fps:g} fps at most; patches "
             f"need at least {MIN_PATCH_FRAMES})"
         )
-    if patch_frames < SHORT_PATCH_SHARE * wanted:  # so short a style gives little to swap in: said plainly
-        log.warning(
-            "warning: %s; windows this short carry little of a style's manner and the output may step or "
-            "slide oddly: give a style clip at least as long as --patch-s",
-            shortened_patch_note(patch_frames, config, fps),
-        )
-    elif patch_frames < wanted:
-        log.info("note: %s", shortened_patch_note(patch_frames, config, fps))
+    for level, text in patch_notes(library, patch_frames, config, fps):
+        log.log(level, "%s", text)
     # whiten, then match: the elastic search over stretched content patches, in two half-shifted sequences
     windows = library.windows(
         patch_frames, config.whiten_floor, config.action_weight, config.match_frame_step(fps)
