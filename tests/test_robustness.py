@@ -498,6 +498,11 @@ def test_demo_refuses_before_writing_anything(tmp_path: Path, data_path: Path) -
 def test_contradicting_transfer_options_exit_2(tmp_path: Path) -> None:
     good = tmp_path / "good.bvh"
     good.write_text(GOOD)
+    # two clips after one --style: the hint to repeat it (it was argparse's bare 'unrecognized arguments')
+    result = _cli("transfer", str(good), "--style", str(good), str(good), "-o", str(tmp_path / "x.bvh"))
+    assert (
+        result.returncode == 2 and f"give each style clip its own --style (--style {good})" in result.stderr
+    )
     for flags, message in [
         (["--style-part", f"left-arm={good}", "--keep-part", "arms"], "left-arm: both kept"),
         (["--skip-existing", "--force"], "not both"),

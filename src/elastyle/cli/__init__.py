@@ -208,7 +208,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args, unknown = parser.parse_known_args(argv)
     if unknown:  # named by the command's own parser, so the error points to its --help
-        parser.commands[args.command].error(f"unrecognized arguments: {' '.join(unknown)}")
+        hint = ""
+        if getattr(args, "command", None) == "transfer" and not any(u.startswith("-") for u in unknown):
+            # clips after a --style that takes one: the usual slip with several style clips
+            hint = f"; give each style clip its own --style (--style {unknown[0]}), or a folder or glob"
+        parser.commands[args.command].error(f"unrecognized arguments: {' '.join(unknown)}{hint}")
     logging.basicConfig(
         level=logging.DEBUG if args.verbose else logging.INFO, format="%(message)s", stream=sys.stderr
     )
