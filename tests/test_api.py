@@ -195,3 +195,17 @@ def test_the_explain_record_on_the_content_clock_and_with_its_settings(
     assert any("style0: the style clips are at most 0.50 s long" in note for note in parted)
     tiny = transfer(content, style_clip, model=model, patch_s=0.2).explain["notes"]
     assert any(note.startswith("warning: --patch-s 0.2: windows under 0.5 s") for note in tiny)
+
+
+def test_options_the_method_does_not_read_are_noted(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
+    """Options set that change nothing for the method (a timing or placement for the statistics methods, a
+    stretch for rigid, a stretch step wider than the range) are noted; the default options are not."""
+    notes = transfer(content, style_clip, model=model, method="wct", timing="content").explain["notes"]
+    assert any(note.startswith("note: --timing has no effect here (--method wct") for note in notes)
+    notes = transfer(content, style_clip, model=model, method="rigid", stretch=0.5).explain["notes"]
+    assert any(note.startswith("note: --stretch has no effect here (--method rigid") for note in notes)
+    notes = transfer(content, style_clip, model=model, stretch_step_s=5).explain["notes"]
+    assert any(note.startswith("note: --stretch-step-s has no effect here") for note in notes)
+    assert not any(
+        "no effect" in note for note in transfer(content, style_clip, model=model).explain["notes"]
+    )
