@@ -145,13 +145,7 @@ def run_eval(args: argparse.Namespace) -> int:
 def _on_model_joints(model: StyleModel, motion: Motion) -> Motion:
     """A clip the model reads, on the model's joints under the model's names (a clip under other names,
     `mixamorig:Hips`, compares with one under the model's own)."""
-    from dataclasses import replace
-
-    from elastyle.core.motion import Motion
-
-    on_model = model.on_model_hierarchy(motion)
-    named = replace(on_model.skeleton, names=model.skeleton.names)
-    return Motion(named, on_model.rotations, on_model.translations, on_model.fps)
+    return model.on_model_hierarchy(motion).renamed(model.skeleton.names)
 
 
 def _read_by(model: StyleModel, motion: Motion, path: str) -> bool:

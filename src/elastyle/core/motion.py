@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -71,6 +71,10 @@ class Motion:
     def scaled(self, factor: float) -> Motion:
         """The clip `factor` times as large: its skeleton and every translation (rotations unchanged)."""
         return Motion(self.skeleton.scaled(factor), self.rotations, self.translations * factor, self.fps)
+
+    def renamed(self, names: Sequence[str]) -> Motion:
+        """The same clip with its joints named `names` (J,): one skeleton read under another's names."""
+        return Motion(replace(self.skeleton, names=tuple(names)), self.rotations, self.translations, self.fps)
 
     def slice(self, start: int, stop: int) -> Motion:
         """Frames [start, stop) as a new clip."""

@@ -9,7 +9,7 @@ from __future__ import annotations
 import logging
 import os
 from collections.abc import Callable, Hashable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -153,8 +153,7 @@ def _mirrored_by_model_names(model: StyleModel, motion: Motion) -> Motion:
     mirrors as the model's own would, even where its own names do not pair (a hand renamed on one side)."""
     if motion.skeleton.num_joints != model.skeleton.num_joints:
         return mirror(motion)
-    named = replace(motion.skeleton, names=model.skeleton.names)
-    mirrored = mirror(Motion(named, motion.rotations, motion.translations, motion.fps))
+    mirrored = mirror(motion.renamed(model.skeleton.names))
     return Motion(motion.skeleton, mirrored.rotations, mirrored.translations, motion.fps)
 
 

@@ -41,10 +41,16 @@ def sample_windows(
 
     Linear between frames, held at the clip's ends. starts, lengths: (Q,) in frames.
     """
-    starts = np.asarray(starts, dtype=np.float64)[:, None]
-    lengths = np.asarray(lengths, dtype=np.float64)[:, None]
-    positions = starts + (np.arange(count) + 0.5) * (lengths / count) - 0.5
+    positions = span_positions(starts, lengths, count, np.arange(count))
     return interpolate_rows(latents, positions.ravel()).reshape(*positions.shape, -1)  # (Q, count, Z)
+
+
+def span_positions(starts: npt.ArrayLike, lengths: npt.ArrayLike, count: int, frames: IntArray) -> FloatArray:
+    """Where frames (F,) of `count` evenly covering each span [start, start + length) (Q,) read: (Q, F)
+    fractional frame positions (frame k at the centre of the span's k-th of `count` equal parts)."""
+    starts = np.atleast_1d(np.asarray(starts, dtype=np.float64))[:, None]
+    lengths = np.atleast_1d(np.asarray(lengths, dtype=np.float64))[:, None]
+    return starts + (frames + 0.5) * (lengths / count) - 0.5
 
 
 def patch_windows(
@@ -122,16 +128,15 @@ class StyleWindows:
     ) -> Iterator[tuple[IntArray, int, int, Float32Array]]:
         """(queries (q,) of a group, first, last, cosine similarity (q, last - first) of those queries with
         windows first..last-1); -inf where a window is invalid or `excluded` (first, last, queries) marks it."""
-        starts, lengths = (np.atleast_1d(np.asarray(a, dtype=np.float64)) for a in (starts, lengths))
         compared = np.arange(self.compared_frames) * self.frame_step  # (Lc,) the compared frames f
-        positions = starts[:, None] + (compared + 0.5) * (lengths[:, None] / self.patch_frames) - 0.5
+        positions = span_positions(starts, lengths, self.patch_frames, compared)  # (Q, Lc)
         lower, upper, weight = bracket(positions.ravel(), content.shape[0])  # (Q * Lc,) each
         lower, upper = lower.reshape(positions.shape), upper.reshape(positions.shape)  # (Q, Lc)
         weight = weight.reshape(positions.shape)
         span = int(compared[-1])  # window n's last compared frame is library frame n + span
         group = max(1, self.GROUP_ROWS // (2 * len(compared)))
-        for begin in range(0, len(starts), group):
-            queries = np.arange(begin, min(begin + group, len(starts)))
+        for begin in range(0, len(positions), group):
+            queries = np.arange(begin, min(begin + group, len(positions)))
             low, high = lower[queries], upper[queries]  # (q, Lc)
             first_row = int(low.min())
             rows = content[first_row : int(high.max()) + 1].astype(np.float32)  # (r, Z) the frames read

@@ -6,7 +6,6 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import replace
 
 from elastyle.core.body import at_size_of, same_rest_pose, same_structure
 from elastyle.core.motion import Motion
@@ -48,8 +47,7 @@ def on_one_skeleton(
     for clip, motion in zip(clips, motions):
         if not skeleton.same_as(motion.skeleton) and same_structure(skeleton, motion.skeleton):
             renamed.append(clip.name)
-            named = replace(motion.skeleton, names=skeleton.names)
-            motion = Motion(named, motion.rotations, motion.translations, motion.fps)
+            motion = motion.renamed(skeleton.names)
         skeleton.check_same(motion.skeleton, reference, clip.name)
         if not same_rest_pose(skeleton, motion.skeleton):
             raise SkeletonMismatchError(
