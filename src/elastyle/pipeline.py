@@ -149,9 +149,9 @@ def transfer(
     patch_frames = min(requested_patch_frames(config, fps), libraries[0].longest_clip)
     if config.method in ("elastic", "rigid") and working.num_frames < patch_frames:
         _say(notes, short_content_note(content_name, content.duration_s, patch_frames / fps))
-    idle = ignored_options(config)
+    idle, why = config.unread_options(patch_frames, fps)
     if idle:
-        _say(notes, f"note: {', '.join(idle)} {'has' if len(idle) == 1 else 'have'} no effect here ({_why_idle(config)})",
+        _say(notes, f"note: {', '.join(idle)} {'has' if len(idle) == 1 else 'have'} no effect here ({why})",
              once=("idle", tuple(idle), config.method))  # fmt: skip
     if config.method in ("elastic", "rigid") and config.patch_s < SHORT_PATCH_S:
         _say(notes, (
@@ -329,7 +329,6 @@ def transfer(
     record = explain(tracks, libraries, content_time, fps, config)
     record["notes"] = [*notes, *record["notes"]]
     if second_style is not None:  # each style's share over content time: the transition or blend
-        change = _as_schedule(second_weight)
         record["second_weight"] = {"times_s": list(change.times_s), "values": list(change.values)}
     if part_tracks:
         part_record = explain(
@@ -380,29 +379,6 @@ def _decoded(
     (T_out,)) on the root path read at the same times."""
     on_output = [on_output_frames(track, grid, content_time) for track in latents]
     return decode_plain(model, on_output, root, config.smooth_s)
-
-
-def ignored_options(config: TransferConfig) -> list[str]:
-    """The options set away from their defaults that the configured method does not read: the statistics
-    methods (wct, adain) match no patches, and rigid tries no stretch."""
-    default = TransferConfig()
-    unread = {
-        "wct": ("placement", "timing", "patch_s", "stretch", "stretch_step_s", "stretch_centre"),
-        "adain": ("placement", "timing", "patch_s", "stretch", "stretch_step_s", "stretch_centre"),
-        "rigid": ("stretch", "stretch_step_s", "stretch_centre"),
-    }.get(config.method, ())
-    names = [name for name in unread if getattr(config, name) != getattr(default, name)]
-    if config.method == "elastic" and config.stretch_step_s > config.stretch * config.patch_s:
-        names.append("stretch_step_s")  # a step wider than either side of the range tries one length
-    return ["--" + name.replace("_", "-") for name in names]
-
-
-def _why_idle(config: TransferConfig) -> str:
-    if config.method in ("wct", "adain"):
-        return f"--method {config.method} colours the content's own latents on its own clock, no patches"
-    if config.method == "rigid":
-        return "--method rigid reads every patch at its own length"
-    return "a stretch step wider than the stretch range tries only the patch's own length"
 
 
 def short_content_note(content_name: str, duration_s: float, patch_s: float) -> str:

@@ -234,6 +234,29 @@ class TransferConfig:
         """`match_step_s` in frames at `fps` (at least 1)."""
         return max(1, int(round(self.match_step_s * fps)))
 
+    def unread_options(self, patch_frames: int, fps: float) -> tuple[list[str], str]:
+        """The options set away from their defaults that change nothing here (as flags), and why: the
+        statistics methods (wct, adain) match no patches on the content's own clock, rigid tries no stretch,
+        and a stretch step wider than the stretch range tries only the patch's own length."""
+        default = TransferConfig()
+        patchless = ("placement", "timing", "patch_s", "stretch", "stretch_step_s", "stretch_centre")
+        unread, why = {
+            "wct": (patchless, "--method wct colours the content's own latents on its own clock, no patches"),
+            "adain": (patchless, "--method adain colours the content's own latents on its own clock, no patches"),
+            "rigid": (("stretch", "stretch_step_s", "stretch_centre"), "--method rigid reads every patch at its own length"),
+        }.get(self.method, ((), ""))  # fmt: skip
+        names = [name for name in unread if getattr(self, name) != getattr(default, name)]
+        every_frame = replace(self, stretch_step_s=0.0).source_lengths(patch_frames, fps)
+        chosen_step = self.stretch_step_s != default.stretch_step_s
+        if (
+            self.method == "elastic"
+            and chosen_step
+            and len(self.source_lengths(patch_frames, fps)) == 1 < len(every_frame)
+        ):
+            names = ["stretch_step_s"]
+            why = "a stretch step wider than the stretch range tries only the patch's own length"
+        return ["--" + name.replace("_", "-") for name in names], why
+
     def source_lengths(self, patch_frames: int, fps: float, tempo: float = 1.0) -> IntArray:
         """Candidate source lengths L' (frames) for a patch of L frames: (1 - stretch) to (1 + stretch)
         times tempo * L, in steps of `stretch_step_s` from tempo * L (the content's own pace at tempo 1)."""
