@@ -59,6 +59,7 @@ def test_short_training_lowers_loss_and_round_trips(trained) -> None:  # type: i
     # an untrained autoencoder's loss on normalised features is about 1 (their variance)
     assert model.metadata["held_out_loss"] < 0.5
     assert "reconstruction_warn_cm" in model.metadata  # calibrated on the takes held out (005)
+    assert abs(model.metadata["ground"] - 4.25) < 0.1  # their toes stand 4.25 cm above the floor
     assert model.metadata["final_train_loss"] < 0.5
     loaded = load_model(path)
     assert loaded.skeleton.names == model.skeleton.names

@@ -698,6 +698,7 @@ def test_a_foot_without_a_toe_joint_is_planted_at_its_end_site(walk: Motion) -> 
     """On a rig whose feet end in End Sites, contacts, pins and the skating figures read the ball of the
     foot (the End Site), as they read a toe joint: pinned at the ankle alone, the foot turned about its heel
     and its ball slid (a drifting walk cleaned to 23.5 cm/s there, against 7.2 with toe joints)."""
+    from elastyle.core.ground import ground_level
     from elastyle.eval.metrics import floor_skating_cm_s
     from elastyle.steps.cleanup import plant_feet
     from tests.test_cleanup import with_drift
@@ -705,6 +706,9 @@ def test_a_foot_without_a_toe_joint_is_planted_at_its_end_site(walk: Motion) -> 
     drifted = with_drift(walk)
     toeless = _without_toes(drifted)
     assert abs(floor_skating_cm_s(toeless) - floor_skating_cm_s(drifted)) < 1.0  # read at the End Site
+    # so is its ground level, also from the clip's own positions (a transfer passes them): read at the
+    # ankles, a transfer's floor stood 6.5 cm up and the clean-up lifted every foot to it
+    assert ground_level(toeless, toeless.positions()) == pytest.approx(ground_level(drifted), abs=1e-4)
     cleaned, with_toes = (
         floor_skating_cm_s(plant_feet(toeless, 0.0)),
         floor_skating_cm_s(plant_feet(drifted, 0.0)),

@@ -261,9 +261,9 @@ def test_content_timing_keeps_the_content_clock(model, content: Motion, style_cl
 
 @pytest.mark.parametrize("timing", ["style", "content"])
 def test_cleanup_plants_the_feet(model, content: Motion, style_clip: Motion, timing: str) -> None:  # type: ignore[no-untyped-def]
+    from elastyle.core.ground import ground_level
     from elastyle.eval.metrics import foot_skating_cm_s
     from elastyle.eval.report import bone_length_error_cm
-    from elastyle.steps.contacts import ground_level
 
     raw = transfer(content, style_clip, TransferConfig(timing=timing, cleanup=False), model=model).motion
     clean = transfer(content, style_clip, TransferConfig(timing=timing), model=model).motion
@@ -276,6 +276,27 @@ def test_cleanup_plants_the_feet(model, content: Motion, style_clip: Motion, tim
         e_clean = timing_error(cadence_steps_s(clean), f_content, f_style)
         assert e_clean < 0.5
         assert abs(e_clean - timing_error(cadence_steps_s(raw), f_content, f_style)) <= 0.05
+
+
+@pytest.mark.parametrize("floor_cm", [10.0, -20.0])
+def test_a_clip_on_another_floor_stands_as_high_above_it(  # type: ignore[no-untyped-def]
+    model, content: Motion, style_clip: Motion, floor_cm: float
+) -> None:
+    """The model reads the pelvis's height above y = 0: a walk on a floor 10 cm up came out 11 cm lower
+    than its own pelvis, its toes dragging, and one 20 cm down walked in the air. On its own floor it now
+    stands as the same walk does on the model's, within the floors taken for the same (1.6 cm), its feet
+    on that floor, and its style's style and its timing alike."""
+    from elastyle.core.ground import ground_level, raised
+
+    on_floor = transfer(content, style_clip, model=model).motion
+    moved = transfer(raised(content, floor_cm), style_clip, model=model).motion
+    pelvis = content.skeleton.pelvis
+    lift = moved.positions()[:, pelvis, 1].mean() - on_floor.positions()[:, pelvis, 1].mean()
+    assert abs(lift - floor_cm) <= 1.7, lift
+    assert abs(ground_level(moved) - floor_cm - ground_level(on_floor)) <= 1.7
+    assert abs(moved.num_frames - on_floor.num_frames) <= 1
+    at_strength_0 = transfer(raised(content, floor_cm), style_clip, model=model, strength=0.0).motion
+    np.testing.assert_array_equal(at_strength_0.translations, raised(content, floor_cm).translations)
 
 
 def _hand_ranges_cm(motion: Motion) -> np.ndarray:

@@ -33,7 +33,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from elastyle.core.body import centimetres_per_unit, find_limbs, guessed_unit_note, no_legs_note
+from elastyle.core.body import centimetres_per_unit, guessed_unit_note, no_legs_note
+from elastyle.core.ground import ground_level, has_feet, raised
 from elastyle.core.motion import Motion, check_finite_clip
 from elastyle.core.parts import body_parts, joint_set, parse_parts, part_joints, sides_guessed
 from elastyle.core.resample import interpolate_rows
@@ -51,7 +52,7 @@ from elastyle.steps.action import (
 )
 from elastyle.steps.cleanup import lift_to_ground, plant_feet
 from elastyle.steps.config import TransferConfig
-from elastyle.steps.contacts import ground_level, held_footing
+from elastyle.steps.contacts import held_footing
 from elastyle.steps.decode import (
     blend_by_strength,
     compose_residual,
@@ -60,7 +61,7 @@ from elastyle.steps.decode import (
     output_frames,
 )
 from elastyle.steps.explain import explain
-from elastyle.steps.keep import keep_target, keep_weights, statistics_weights
+from elastyle.steps.keep import fallback_weights, keep_target, keep_weights, statistics_weights
 from elastyle.steps.library import StyleLibrary, as_library
 from elastyle.steps.schedule import Schedule
 from elastyle.steps.timeline import content_grid, mix_tracks, on_output_frames, output_content_times
@@ -185,10 +186,14 @@ def transfer(
             f"{content_name}: a body part is given two styles (--style-part); give each part one"
         )
 
+    # on the floor of the model's takes (the model reads the pelvis's height above y = 0); back at the end
+    world = working.world()  # (T, J, 3, 3), (T, J, 3): for the floor, the depth check and the action channels
+    lift = model.floor_lift(working, world[1])  # model units
+    content, working = raised(content, lift), raised(working, lift)
+    world = (world[0], world[1] + np.array([0.0, lift, 0.0]))
     # features and encode: the content's latents (T, Z) and the root path a transfer keeps
     content_latents, root = model.encode_motion(working)
     # check that the model can represent this content (a warning when far worse than its held-out takes)
-    world = working.world()  # (T, J, 3, 3), (T, J, 3): for this check and the action channels
     error_cm = reconstruction_error_cm(model, working, content_latents, root, world[1])
     warning = depth_warning(model, error_cm, content_name)
     if warning is not None:
@@ -279,8 +284,16 @@ def transfer(
         keep[:, automatic] *= np.clip(strength_out, 0.0, 1.0)[:, None]
     else:  # at strength 0 the output is the content already, to the last bit
         keep[np.ix_(strength_out <= 0, automatic)] = 0.0
+    lowest_ground = _lowest_ground(working, world[1])  # none without feet
     if config.cleanup:
-        motion = blend_by_strength(motion, plant_feet(motion, root_share), clean_share)
+        # on the content's floor (toes the style's statistics swing through it are lifted); where the style's
+        # statistics alone colour the content (the fallback, the statistics methods) its legs step as the
+        # content's do, so its contacts hold too and its feet's clearance of the ground
+        on_statistics = fallback_weights(tracks, shares, grid, content_time, positions) > 0.5  # (N,)
+        also, foot_floor = held_footing(content_at, on_statistics) if np.any(on_statistics) else (None, None)
+        motion = blend_by_strength(
+            motion, plant_feet(motion, root_share, also, foot_floor, lowest_ground), clean_share
+        )
     if np.any(keep > 0):
         reference = content_at if base_at is None else base_at
         unstyled = joint_set([*kept, *styled_joints])  # kept, or styled by another library
@@ -310,19 +323,18 @@ def transfer(
             # land nor whether a swinging foot skims the floor
             kept_legs = np.max(keep[:, legs], axis=1) > 0.5  # (N,)
             also, foot_floor = held_footing(content_at, kept_legs)  # (N, F), (N, F, 2)
-            floor = _floor(motion, content_at)
             if coloured_at is not None:  # coloured legs: the whole clean-up again
                 motion = blend_by_strength(
-                    motion, plant_feet(motion, root_share, also, foot_floor, floor), clean_share
+                    motion, plant_feet(motion, root_share, also, foot_floor, lowest_ground), clean_share
                 )
             else:
                 # legs that keep the content's action (a turn matched against straight windows) mix two
                 # gaits, whose stance feet slide: pinned again as far as they keep it, the root left where
                 # the clean-up put it (moving it again would shift the whole path), and kept above the ground
-                pinned = plant_feet(motion, 0.0, also, foot_floor, floor)
+                pinned = plant_feet(motion, 0.0, also, foot_floor, lowest_ground)
                 motion = blend_by_strength(motion, pinned, legs_keep * clean_share)  # the strength once
                 motion = blend_by_strength(
-                    motion, lift_to_ground(motion, floor), (keep > 0) * clean_share[:, None]
+                    motion, lift_to_ground(motion, lowest_ground), (keep > 0) * clean_share[:, None]
                 )
             motion = motion.with_joints(content_at, kept, translations=True)  # kept parts stay the content's
     _check_finite(motion, "foot clean-up" if config.cleanup else "decoding", content_name)
@@ -339,8 +351,8 @@ def transfer(
             {"parts": list(parse_parts(names, "--style-part")), **entry}
             for names, entry in zip((part_styles or {}).keys(), part_record["styles"])
         ]
-    if size != 1.0:  # back to the content's own size, on its own skeleton
-        translations = motion.translations / size
+    if size != 1.0 or lift != 0.0:  # back to the content's own floor and size, on its own skeleton
+        translations = raised(motion, -lift).translations / size
         given_at = frames_of(given, content_frames)  # where the output is the content, exactly its values
         exact = strength_out <= 0
         translations[exact] = given_at.translations[exact]
@@ -353,18 +365,18 @@ def transfer(
     return TransferResult(motion, record)
 
 
-SINK_CM = 1.0  # a clean-up after the statistics lets toes stand at most this far below the content's ground
+SINK_CM = 1.0  # the clean-up lets toes stand at most this far below the content's ground
 
 
-def _floor(motion: Motion, content: Motion) -> float | None:
-    """The toes' ground level (file units) a clean-up after the style's statistics lifts a clip's feet to:
-    its own, but no further than `SINK_CM` below its content's (the floor the output walks on). Statistics
-    that lower the feet lower the clip's own ground level (the 5th percentile of its toe heights), and a
-    walk's statistics on a run's legs had a foot 3 cm through the floor. None without feet."""
-    if not len(find_limbs(content.skeleton).toes):
+def _lowest_ground(content: Motion, positions: FloatArray) -> float | None:
+    """The lowest toes' ground level (file units) the clean-up lets an output stand on: `SINK_CM` below the
+    content's (the floor the output walks on; positions (T, J, 3) of its frames). Statistics that lower
+    the feet lower a clip's own ground level (the 5th percentile of its toe heights): a walk's statistics on
+    a run's legs had a foot 3 cm through the floor, and an exhausted walk's on a walk swung the toes 4 cm
+    through it, its stance then read as a foot in the air. None without feet."""
+    if not has_feet(content):
         return None
-    lowest = ground_level(content) - SINK_CM / centimetres_per_unit(content.skeleton)
-    return max(ground_level(motion), lowest)
+    return ground_level(content, positions) - SINK_CM / centimetres_per_unit(content.skeleton)
 
 
 def _decoded(

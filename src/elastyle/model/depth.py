@@ -9,11 +9,13 @@ warning naming it.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from elastyle.core.body import centimetres_per_unit
+from elastyle.core.ground import ground_level, has_feet
 from elastyle.core.motion import Motion
 from elastyle.model.features import RootPath
 from elastyle.model.file import StyleModel
@@ -55,20 +57,27 @@ def reconstruction_error_cm(
 
 def clip_depth(model: StyleModel, motion: Motion, name: str) -> tuple[float, str | None]:
     """A clip's reconstruction error (cm) and, when it is far above the held-out takes', the warning."""
-    working = model.at_model_size(model.on_model_hierarchy(motion))[0].resample(model.fps)
+    sized = model.at_model_size(model.on_model_hierarchy(motion))[0]
+    working = model.on_model_floor(sized).resample(model.fps)
     latents, root = model.encode_motion(working)
     error = reconstruction_error_cm(model, working, latents, root)
     return error, depth_warning(model, error, name)
 
 
 def calibrate(model: StyleModel, held_out: Sequence[Motion]) -> dict[str, Any]:
-    """Held-out reconstruction figures for the model's metadata: median and 95th percentile (cm) and the
-    warning threshold derived from them."""
-    errors = [clip_depth(model, motion, "held-out take")[0] for motion in held_out]
+    """Held-out figures for the model's metadata: the toes' ground level its takes stand on (model units,
+    the median over clips with toes; `StyleModel.ground`), and the reconstruction error's median and 95th
+    percentile (cm) on that floor with the warning threshold derived from them."""
+    sized = [model.at_model_size(model.on_model_hierarchy(motion))[0] for motion in held_out]
+    grounds = [ground_level(motion) for motion in sized if has_feet(motion)]
+    figures: dict[str, Any] = {"ground": round(float(np.median(grounds)), 4)} if grounds else {}
+    floored = replace(model, metadata={**model.metadata, **figures})
+    errors = [clip_depth(floored, motion, "held-out take")[0] for motion in held_out]
     if not errors:
-        return {}
+        return figures
     p95 = float(np.percentile(errors, 95))
     return {
+        **figures,
         "held_out_joint_error_cm": {"median": round(float(np.median(errors)), 3), "p95": round(p95, 3)},
         "reconstruction_warn_cm": round(max(WARN_FACTOR * p95, WARN_FLOOR_CM), 2),
     }

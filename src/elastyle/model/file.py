@@ -21,6 +21,7 @@ import numpy as np
 
 from elastyle.core.body import at_size_of, same_rest_pose, same_structure
 from elastyle.core.extra_joints import model_joints_in, with_extra_joints, without_extra_joints
+from elastyle.core.ground import floor_gap, has_feet, raised
 from elastyle.core.motion import Motion
 from elastyle.core.rest_frames import AXIS_TURNS, frames_turned
 from elastyle.core.roots import with_added_roots, without_added_roots
@@ -67,12 +68,34 @@ class StyleModel:
             self.feature_mean, self.feature_std, self.features.reference_rotations, weights.conv1, weights.conv2
         ):  # fmt: skip
             digest.update(np.ascontiguousarray(array).tobytes())
-        digest.update(repr((self.config, self.fps, self.skeleton.names)).encode())
+        digest.update(repr((self.config, self.fps, self.skeleton.names, self.ground)).encode())
         return digest.hexdigest()
 
     def at_model_size(self, motion: Motion) -> tuple[Motion, float]:
         """The clip scaled to the model's unit and size (`core.body.size_factor`), and the factor."""
         return at_size_of(motion, self.skeleton)
+
+    @property
+    def ground(self) -> float | None:
+        """The toes' ground level (model units, `core.ground.ground_level`) of the model's held-out takes
+        (their median, recorded by `calibrate`); None in a file written before it was recorded."""
+        value = self.metadata.get("ground")
+        return None if value is None else float(value)
+
+    def floor_lift(self, motion: Motion, positions: FloatArray | None = None) -> float:
+        """How far (model units) to raise a clip at the model's size (`at_model_size`) so that it stands on
+        the floor of the model's takes: their toes' ground level (`ground`) less the clip's (positions
+        (T, J, 3) of its frames, when known), within a tolerance (`core.ground.floor_gap`). The model reads
+        the pelvis's height above y = 0, so a clip on another floor would take the style's height above
+        that floor (a walk on a floor 10 cm up came out crouched 11 cm lower, its toes dragging). 0 where
+        the model records no ground or the clip has no toes."""
+        if self.ground is None or not has_feet(motion):
+            return 0.0
+        return floor_gap(motion, self.ground, positions)
+
+    def on_model_floor(self, motion: Motion) -> Motion:
+        """The clip at the model's size raised onto the floor of the model's takes (`floor_lift`)."""
+        return raised(motion, self.floor_lift(motion))
 
     def on_model_hierarchy(self, motion: Motion) -> Motion:
         """The clip on the model's joints: its joints' axes turned to the model's where an exporter turned

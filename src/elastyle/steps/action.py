@@ -19,12 +19,12 @@ from __future__ import annotations
 import numpy as np
 
 from elastyle.core.body import find_limbs, heading_yaw, leg_length, pelvis_forward_local, yaw_matrices
+from elastyle.core.ground import GROUND_PERCENTILE, PERCENTILE_METHOD
 from elastyle.core.motion import Motion
 from elastyle.core.parts import body_parts
 from elastyle.core.rotations import lengths
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import frame_steps, smooth
-from elastyle.steps.contacts import GROUND_PERCENTILE, PERCENTILE_METHOD
 from elastyle.types import BoolArray, FloatArray, IntArray
 
 # sustained turning: the yaw rate low-passed with this sigma (seconds), so a step's sway does not count

@@ -10,16 +10,11 @@ import numpy as np
 
 from elastyle.core.body import Limbs, find_limbs, leg_length
 from elastyle.core.foot_tips import on_own_joints, with_foot_tips
+from elastyle.core.ground import ground_level
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import lengths
 from elastyle.core.smoothing import pad_edges, smooth
-from elastyle.steps.contacts import (
-    checked_contacts,
-    detect_contacts,
-    ground_level,
-    mask_runs,
-    pivots,
-)
+from elastyle.steps.contacts import checked_contacts, detect_contacts, mask_runs, pivots
 from elastyle.steps.leg_ik import is_below, leg_ik
 from elastyle.steps.root_follow import SMOOTH_SIGMA_OF_WIDTH, carried_by_pelvis, root_shift, shift_pelvis
 from elastyle.types import BoolArray, FloatArray, IntArray
@@ -39,10 +34,10 @@ def plant_feet(
     root_share: float | FloatArray,
     also: BoolArray | None = None,
     foot_floor: FloatArray | None = None,
-    ground: float | None = None,
+    lowest_ground: float | None = None,
 ) -> Motion:
     """The whole clean-up (see `_plant_feet`), a toe-less foot read at its End Site (`core.foot_tips`)."""
-    extended = _plant_feet(with_foot_tips(motion), root_share, also, foot_floor, ground)
+    extended = _plant_feet(with_foot_tips(motion), root_share, also, foot_floor, lowest_ground)
     return on_own_joints(extended, motion.skeleton)
 
 
@@ -51,19 +46,20 @@ def _plant_feet(
     root_share: float | FloatArray,
     also: BoolArray | None = None,
     foot_floor: FloatArray | None = None,
-    ground: float | None = None,
+    lowest_ground: float | None = None,
 ) -> Motion:
     """The whole clean-up: contacts found, the root moved by `root_share` (or per frame (T,)) of the stance feet's drift
     (`steps.root_follow.adjust_root_speed`, skipped at 0), then the feet pinned (`clean_feet`). One forward kinematics pass
     serves all three: moving the root moves the legs with it and turns nothing. also: (T, F) contacts known
     from elsewhere, added to those found; foot_floor: (T, F, 2) the lowest height of each foot's toe and
     ankle (`clean_feet`): legs that step as another clip does take its contacts and its feet's clearance
-    of the ground (`steps.contacts.held_footing`); ground: the toes' ground level (`clean_feet`)."""
+    of the ground (`steps.contacts.held_footing`); lowest_ground: `clean_feet`."""
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
         return _clean_feet(motion)
     world_rotations, positions = motion.world(limbs.feet)
-    contacts = detect_contacts(motion, positions)
+    ground = _ground(motion, positions, lowest_ground)
+    contacts = detect_contacts(motion, positions, ground)
     if also is not None:
         contacts = contacts | checked_contacts(also, motion, limbs)
     if np.all(np.asarray(root_share) <= 0):
@@ -86,11 +82,24 @@ def clean_feet(
     contacts: BoolArray | None = None,
     blend_s: float = 0.15,
     foot_floor: FloatArray | None = None,
-    ground: float | None = None,
+    lowest_ground: float | None = None,
 ) -> Motion:
-    """Feet pinned (see `_clean_feet`), a toe-less foot read at its End Site (`core.foot_tips`)."""
-    extended = _clean_feet(with_foot_tips(motion), contacts, blend_s, None, foot_floor, ground)
-    return on_own_joints(extended, motion.skeleton)
+    """Feet pinned (see `_clean_feet`), a toe-less foot read at its End Site (`core.foot_tips`), on the toes'
+    ground level: the clip's own `ground_level`, but not below `lowest_ground` (file units; a transfer gives
+    its content's floor less a centimetre, so toes the style's statistics swing through that floor are
+    lifted to it, and a foot standing on it is read as standing: `steps.contacts.point_grounds`)."""
+    extended = with_foot_tips(motion)
+    limbs = find_limbs(extended.skeleton)
+    world = extended.world(limbs.feet) if len(limbs.toes) else None
+    ground = _ground(extended, world[1], lowest_ground) if world is not None else None
+    pinned = _clean_feet(extended, contacts, blend_s, world, foot_floor, ground)
+    return on_own_joints(pinned, motion.skeleton)
+
+
+def _ground(motion: Motion, positions: FloatArray, lowest: float | None) -> float:
+    """The toes' ground level (file units) of a clip (positions (T, J, 3)): its own, not below `lowest`."""
+    own = ground_level(motion, positions)
+    return own if lowest is None else max(own, lowest)
 
 
 def _clean_feet(
@@ -117,21 +126,24 @@ def _clean_feet(
     eased over `FLOOR_EASE_S` (never below what it needs, so a swinging foot clears that floor instead of
     skimming along it) and, nearer a contact of its own, by less of the easing, down to each planted
     frame's own need (no easing raises a foot that stands). ground: the toes' ground level (file units),
-    the clip's own `ground_level` when None (a transfer gives its content's: the floor the output walks on).
+    the clip's own `ground_level` when None (`clean_feet`: not below the floor the output walks on); above
+    the clip's own, contacts and pivots are read from it too (`steps.contacts.point_grounds`).
     """
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
         return Motion(skeleton, motion.rotations.copy(), motion.translations.copy(), motion.fps)
     world_rotations, positions = motion.world(limbs.feet) if world is None else world  # legs and their roots
     contacts = (
-        detect_contacts(motion, positions) if contacts is None else checked_contacts(contacts, motion, limbs)
+        detect_contacts(motion, positions, ground)
+        if contacts is None
+        else checked_contacts(contacts, motion, limbs)
     )
     leg = leg_length(skeleton, limbs)
     ground = ground_level(motion, positions) if ground is None else ground
     ramp_frames = blend_s * motion.fps
     bridge_frames = max(BRIDGE_GAP_S * motion.fps, 2 * ramp_frames)
     # 1. ankle targets: the pinned contact point's correction moves the whole foot, then lift to the ground
-    points, weights = pivots(positions, limbs, leg)  # (T, F, 2, 3), (T, F, 2)
+    points, weights = pivots(positions, limbs, leg, ground)  # (T, F, 2, 3), (T, F, 2)
     targets = positions[:, limbs.ankles].copy()  # (T, F, 3)
     for foot in range(len(limbs.toes)):
         targets[:, foot] += _pin_corrections(
@@ -170,11 +182,12 @@ def _clean_feet(
     return Motion(skeleton, rotations, translations, motion.fps)
 
 
-def lift_to_ground(motion: Motion, ground: float | None = None) -> Motion:
-    """Toes and ankles below the toes' ground level (the clip's `ground_level` when None) lifted to it by the
-    legs' IK, nothing else changed: for legs set after the clean-up (those that keep the content's action)."""
+def lift_to_ground(motion: Motion, lowest_ground: float | None = None) -> Motion:
+    """Toes and ankles below the toes' ground level (`clean_feet`) lifted to it by the legs' IK, nothing
+    else changed: for legs set after the clean-up (those that keep the content's action)."""
     limbs = find_limbs(motion.skeleton)
-    return clean_feet(motion, np.zeros((motion.num_frames, len(limbs.toes)), dtype=bool), ground=ground)
+    no_contacts = np.zeros((motion.num_frames, len(limbs.toes)), dtype=bool)
+    return clean_feet(motion, no_contacts, lowest_ground=lowest_ground)
 
 
 def _checked_floor(floor: FloatArray, motion: Motion, limbs: Limbs) -> FloatArray:

@@ -7,22 +7,17 @@ height), so metres, centimetres and inches behave alike.
 
 from __future__ import annotations
 
-from typing import Final
-
 import numpy as np
 
 from elastyle.core.body import Limbs, find_limbs, leg_length
 from elastyle.core.foot_tips import with_foot_tips
+from elastyle.core.ground import GROUND_PERCENTILE, PERCENTILE_METHOD
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import lengths
 from elastyle.core.smoothing import frame_steps
 from elastyle.types import BoolArray, FloatArray, IntArray
 
 TOE, HEEL = 0, 1  # a foot's two contact points, last axis of point contacts: the toe joint, the ankle joint
-GROUND_PERCENTILE = 5.0  # a foot joint's ground level: this percentile of its heights over the clip
-# the nearest sample to that percentile: numpy's interpolating method imports numpy.ma (8 to 9 ms, a
-# twentieth of a command-line transfer) on its first call in a process
-PERCENTILE_METHOD: Final = "nearest"
 ENTER_HEIGHT_OF_LEG = 0.03  # a toe or ankle this close to its ground level (2.4 cm on an 80 cm leg) ...
 ENTER_SPEED_LEGS_S = 0.5  # ... and slower than this (40 cm/s) starts a contact
 EXIT_HEIGHT_OF_LEG = 0.06  # the contact lasts until both joints are higher than this ...
@@ -36,20 +31,16 @@ BEHIND_OF_TRAVEL = 0.25  # ... and falls behind the pelvis by this share of its 
 ENTER_VERTICAL_LEGS_S = 0.2  # and a sliding foot enters contact when it rises or sinks slower than this
 
 
-def ground_level(motion: Motion, positions: FloatArray | None = None) -> float:
-    """Height (file units) of the toes' ground level: the 5th percentile of toe heights over all feet (a
-    foot without a toe joint at its End Site, `core.foot_tips`, unless `positions` of the clip are given)."""
-    if positions is None:
-        motion = with_foot_tips(motion)
-    toes = find_limbs(motion.skeleton).toes
-    positions = motion.positions(toes) if positions is None else positions
-    return float(np.percentile(positions[:, toes, 1], GROUND_PERCENTILE, method=PERCENTILE_METHOD))
-
-
-def point_grounds(heights: FloatArray) -> FloatArray:
+def point_grounds(heights: FloatArray, ground: float | None = None) -> FloatArray:
     """(1, 1, 2) the ground level of each kind of contact point, toes and ankles apart, over every foot and
-    frame of their heights (T, F, 2): the `GROUND_PERCENTILE`."""
-    return np.percentile(heights, GROUND_PERCENTILE, axis=(0, 1), keepdims=True, method=PERCENTILE_METHOD)
+    frame of their heights (T, F, 2): the `GROUND_PERCENTILE`. ground: the toes' ground level (file units)
+    where it is known from elsewhere (the floor a transfer's content walks on): where the clip's own toe
+    level lies below it (toes that swing through the floor), both levels are raised by the difference, so a
+    foot standing on that floor is read as standing."""
+    grounds = np.percentile(heights, GROUND_PERCENTILE, axis=(0, 1), keepdims=True, method=PERCENTILE_METHOD)
+    if ground is None:
+        return grounds
+    return grounds + max(0.0, ground - float(grounds[0, 0, TOE]))
 
 
 def contact_points(limbs: Limbs) -> IntArray:
@@ -62,21 +53,25 @@ def _min_contact_frames(fps: float) -> int:
     return max(1, int(np.ceil(MIN_CONTACT_S * fps)))
 
 
-def detect_contacts(motion: Motion, positions: FloatArray | None = None) -> BoolArray:
+def detect_contacts(
+    motion: Motion, positions: FloatArray | None = None, ground: float | None = None
+) -> BoolArray:
     """(T, F) True where foot f is planted (its toe or its heel), F = len(find_limbs(skeleton).toes).
 
     The union of `detect_point_contacts`' toe and heel tracks, with gaps shorter than `MIN_CONTACT_S`
     filled (a heel lifting a frame before the toe lands is one contact). A foot without a toe joint is read
-    at its End Site (`core.foot_tips`) unless `positions` of the clip are given.
+    at its End Site (`core.foot_tips`) unless `positions` of the clip are given. ground: `point_grounds`.
     """
     if positions is None:
         motion = with_foot_tips(motion)
-    contacts: BoolArray = np.any(detect_point_contacts(motion, positions), axis=2)  # (T, F)
+    contacts: BoolArray = np.any(detect_point_contacts(motion, positions, ground), axis=2)  # (T, F)
     _drop_short_runs(contacts, _min_contact_frames(motion.fps), gaps_only=True)
     return contacts
 
 
-def detect_point_contacts(motion: Motion, positions: FloatArray | None = None) -> BoolArray:
+def detect_point_contacts(
+    motion: Motion, positions: FloatArray | None = None, ground: float | None = None
+) -> BoolArray:
     """(T, F, 2) True where the toe (`TOE`) or the heel (`HEEL`: the ankle joint) of foot f is planted.
 
     positions: (T, J, 3) the clip's world positions when already known (at least the pelvis, toes and
@@ -87,7 +82,8 @@ def detect_point_contacts(motion: Motion, positions: FloatArray | None = None) -
     shorter than the ground the root covers slides back, a swing foot overtakes the pelvis). It leaves when
     it is no longer near the ground and held (looser thresholds: hysteresis). Contacts and gaps shorter than
     `MIN_CONTACT_S` are removed. Walking forwards, backwards or sideways, running and turning on the spot
-    alike: nothing assumes which way the body faces.
+    alike: nothing assumes which way the body faces. ground: the toes' ground level when known from
+    elsewhere (`point_grounds`).
     """
     limbs = find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
@@ -97,7 +93,7 @@ def detect_point_contacts(motion: Motion, positions: FloatArray | None = None) -
     leg = leg_length(motion.skeleton, limbs)
     joints = contact_points(limbs)  # (F, 2) toe and heel of each foot
     heights = positions[:, joints, 1]  # (T, F, 2)
-    heights = heights - point_grounds(heights)
+    heights = heights - point_grounds(heights, ground)
     per_second = motion.fps / leg  # a frame step in file units, as leg lengths per second
     velocity = frame_steps(positions[:, joints]) * per_second  # (T, F, 2, 3) legs/s
     speed = lengths(velocity[..., [0, 2]])  # (T, F, 2)
@@ -145,7 +141,9 @@ def mask_runs(mask: BoolArray) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()))
 
 
-def pivots(positions: FloatArray, limbs: Limbs, leg: float) -> tuple[FloatArray, FloatArray]:
+def pivots(
+    positions: FloatArray, limbs: Limbs, leg: float, ground: float | None = None
+) -> tuple[FloatArray, FloatArray]:
     """Toe and ankle positions (T, F, 2, 3) of each foot and how firmly (T, F, 2) each is held in place.
 
     The toe is what skating metrics watch and it stays put from foot-flat to toe-off; only at heel strike
@@ -153,10 +151,11 @@ def pivots(positions: FloatArray, limbs: Limbs, leg: float) -> tuple[FloatArray,
     weight. The hold fades from 1 to 0 as that pivot rises from half the entry height to the exit height,
     so a foot lifting off leaves gently instead of being pinned until the contact ends. Heights choose the
     pivot, not `detect_point_contacts`' tracks: on a decoded clip whose feet slide, a sliding toe fails its
-    track's speed test while the heel passes, and holding the heel there leaves the toe sliding.
+    track's speed test while the heel passes, and holding the heel there leaves the toe sliding. ground:
+    the toes' ground level when known from elsewhere (`point_grounds`).
     """
     points = positions[:, contact_points(limbs)]  # (T, F, 2, 3)
-    heights = points[..., 1] - point_grounds(points[..., 1])  # (T, F, 2)
+    heights = points[..., 1] - point_grounds(points[..., 1], ground)  # (T, F, 2)
     toe_weight = _smoothstep(1.0 + (heights[..., HEEL] - heights[..., TOE]) / (ENTER_HEIGHT_OF_LEG * leg))
     weights = np.stack([toe_weight, 1 - toe_weight], axis=-1)  # (T, F, 2), sums to 1
     pivot_height = np.sum(weights * heights, axis=-1)  # (T, F)

@@ -73,6 +73,21 @@ def statistics_weights(
     return weights
 
 
+def fallback_weights(
+    tracks: Sequence[StyleTrack],
+    shares: Sequence[FloatArray],
+    grid: FloatArray,
+    content_time: FloatArray,
+    positions: FloatArray,
+) -> FloatArray:
+    """(N,) per output frame, 0 to 1: the share of the style's statistics alone (the tracks' `fallback`,
+    weighted by their shares; 1 throughout for the statistics methods), read at the output frames as
+    `keep_weights` reads. There the content's latents are coloured in place, so its legs step as it does."""
+    on_grid = np.sum([share * track.fallback for track, share in zip(tracks, shares)], axis=0)  # (G,)
+    model_rate = on_output_frames(on_grid, grid, content_time)  # (T_out,)
+    return np.interp(positions, np.arange(len(model_rate)), model_rate)
+
+
 def _per_joint(
     sources: Sequence[tuple[IntArray, list[StyleTrack], list[FloatArray]]],
     field: str,

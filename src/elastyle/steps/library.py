@@ -127,7 +127,8 @@ def prepare_style(
     clips: list[tuple[str, bool, Motion]] = []
     for name, motion in zip(names, motions):
         model.check_clip(motion, name)
-        motion = model.at_model_size(model.on_model_hierarchy(motion))[0].resample(model.fps)
+        sized = model.at_model_size(model.on_model_hierarchy(motion))[0]
+        motion = model.on_model_floor(sized).resample(model.fps)
         clips.append((name, False, motion))
         if mirror_style:
             try:
