@@ -485,6 +485,29 @@ def _reordered(motion: Motion, first: tuple[str, ...]) -> Motion:
     return Motion(moved, motion.rotations[:, order], motion.translations[:, order], motion.fps)
 
 
+@pytest.mark.parametrize("scheme", ["blender", "unnamed"])
+def test_a_renamed_skeleton_listed_in_another_order_transfers_as_the_models(
+    walk: Motion, dataset_clips: list[ClipRef], scheme: str
+) -> None:
+    """Other joint names and another order at once (the legs listed before the spine): each joint's children
+    are paired with the model's by the way their bones point at rest, so the clip is read as the model's
+    skeleton (it was refused, and its user told to train a model)."""
+    from elastyle.pipeline import transfer
+
+    def exported(motion: Motion) -> Motion:
+        return _renamed(_reordered(motion, ("UpperLeg_R", "UpperLeg_L")), scheme)
+
+    model = load_model()
+    style = clip_named(dataset_clips, "dataset-2_walk_elderly_010").read()[0]
+    own = transfer(walk, style, model=model).motion
+    result = transfer(exported(walk), exported(style), model=model)
+    assert result.motion.skeleton.names == exported(walk).skeleton.names  # written in its own order
+    listed = _reordered(walk, ("UpperLeg_R", "UpperLeg_L")).skeleton.names  # its joints' model names
+    mapped = [own.skeleton.index(name) for name in listed]
+    np.testing.assert_allclose(result.motion.positions(), own.positions()[:, mapped], atol=1e-6)
+    assert any("joint names differ" in note for note in result.explain["notes"])
+
+
 def _in_z_up_axes(motion: Motion) -> Motion:
     """The clip as an exporter working in +Z up writes it: the world turned a quarter turn about X and every
     joint's axes with it (bone offsets, local frames), not only the root."""

@@ -13,6 +13,8 @@ lists every joint in the clip's order.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from elastyle.core.motion import Motion
@@ -62,7 +64,9 @@ def _by_hierarchy(model: Skeleton, clip: Skeleton) -> IntArray | None:
     """`model_joints_in` under other names: the clip's root taken for the model's joint k (0, or a joint of
     the static chain above the model's pelvis that some exporters drop), each model joint with children
     matched to a clip joint with as many children, in their order, and a model joint without children to
-    a clip joint with any (fingers below a hand, a tip below the head); None where the tree differs."""
+    a clip joint with any (fingers below a hand, a tip below the head); None where the tree differs. A
+    joint's children are paired by the way their bones point at rest (`_paired`), so a clip that lists them
+    in another order (the legs before the spine) under other names is read too."""
     for top in range(model.pelvis + 1):
         if top and model.parents[top] != top - 1:
             break  # the joints above the root are no chain
@@ -75,12 +79,38 @@ def _by_hierarchy(model: Skeleton, clip: Skeleton) -> IntArray | None:
                 continue  # the clip's joints below a model end joint are extra
             if len(theirs) != len(ours):
                 break
-            found.update(zip(ours, theirs))
+            found.update(zip(ours, _paired(model, clip, ours, theirs)))
             pending.extend(ours)
         else:
             if len(found) == model.num_joints - top:
                 return np.array([found[joint] for joint in range(top, model.num_joints)], dtype=np.int64)
     return None
+
+
+MAX_PAIRED_CHILDREN = 6  # more children than this are paired in their order (720 orders tried at most)
+
+
+def _paired(model: Skeleton, clip: Skeleton, ours: list[int], theirs: list[int]) -> list[int]:
+    """The clip's children `theirs` in the order that pairs them with the model's children `ours` (as many)
+    whose bones point most alike at rest (the greatest sum of the cosines of their offsets); their own
+    order where that is as alike, or where there are more than `MAX_PAIRED_CHILDREN`."""
+    if len(ours) < 2 or len(ours) > MAX_PAIRED_CHILDREN:
+        return theirs
+
+    def unit(offsets: np.ndarray) -> np.ndarray:
+        size = np.linalg.norm(offsets, axis=1, keepdims=True)
+        return np.where(size > 0, offsets / np.maximum(size, 1e-300), 0.0)
+
+    alike = unit(model.offsets[ours]) @ unit(clip.offsets[theirs]).T  # (C, C) cosines
+    rows = np.arange(len(ours))
+    best = max(
+        itertools.permutations(range(len(theirs))),
+        key=lambda order: (
+            round(float(alike[rows, list(order)].sum()), 9),
+            -sum(map(abs, np.subtract(order, rows))),
+        ),
+    )
+    return [theirs[k] for k in best]
 
 
 def without_extra_joints(motion: Motion, joints: IntArray) -> Motion:
