@@ -35,9 +35,10 @@ def plant_feet(
     also: BoolArray | None = None,
     foot_floor: FloatArray | None = None,
     lowest_ground: float | None = None,
+    root_applied: FloatArray | None = None,
 ) -> Motion:
     """The whole clean-up (see `_plant_feet`), a toe-less foot read at its End Site (`core.foot_tips`)."""
-    extended = _plant_feet(with_foot_tips(motion), root_share, also, foot_floor, lowest_ground)
+    extended = _plant_feet(with_foot_tips(motion), root_share, also, foot_floor, lowest_ground, root_applied)
     return on_own_joints(extended, motion.skeleton)
 
 
@@ -47,13 +48,15 @@ def _plant_feet(
     also: BoolArray | None = None,
     foot_floor: FloatArray | None = None,
     lowest_ground: float | None = None,
+    root_applied: FloatArray | None = None,
 ) -> Motion:
     """The whole clean-up: contacts found, the root moved by `root_share` (or per frame (T,)) of the stance feet's drift
     (`steps.root_follow.adjust_root_speed`, skipped at 0), then the feet pinned (`clean_feet`). One forward kinematics pass
     serves all three: moving the root moves the legs with it and turns nothing. also: (T, F) contacts known
     from elsewhere, added to those found; foot_floor: (T, F, 2) the lowest height of each foot's toe and
     ankle (`clean_feet`): legs that step as another clip does take its contacts and its feet's clearance
-    of the ground (`steps.contacts.held_footing`); lowest_ground: `clean_feet`."""
+    of the ground (`steps.contacts.held_footing`); lowest_ground: `clean_feet`; root_applied: (T,) how far
+    each frame takes the root's move (`steps.root_follow.root_shift`), all of it when None."""
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
         return _clean_feet(motion)
@@ -66,7 +69,9 @@ def _plant_feet(
         return _clean_feet(
             motion, contacts, world=(world_rotations, positions), foot_floor=foot_floor, ground=ground
         )
-    shift = root_shift(motion, contacts, (world_rotations, positions), root_share)  # (T, 3) world
+    shift = root_shift(
+        motion, contacts, (world_rotations, positions), root_share, applied=root_applied
+    )  # (T, 3) world
     moved = Motion(
         skeleton, motion.rotations.copy(), shift_pelvis(motion, world_rotations, shift), motion.fps
     )
