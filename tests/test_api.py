@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
@@ -54,10 +55,28 @@ def test_wrong_types_say_what_to_pass(model, content: Motion, style_clip: Motion
         prepare_style(model, [])
     with pytest.raises(ConfigError, match="config must be a TransferConfig"):
         transfer(content, style_clip, {"strength": 0.5}, model=model)  # type: ignore[arg-type]
-    with pytest.raises(ConfigError, match="--cleanup: must be True or False"):
+    # options are named as Python names them (the command line says its flags instead)
+    with pytest.raises(ConfigError, match="^cleanup: must be True or False"):
         TransferConfig(cleanup="no")  # type: ignore[arg-type]
-    with pytest.raises(ConfigError, match="--strength"):
+    with pytest.raises(ConfigError, match="^strength: "):
         TransferConfig(strength=None)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match="^strength: keyframe times are seconds from 0"):
+        TransferConfig(strength="-1:0,2:1")
+    for text in ("0:0,2:1,", "0:0,,2:1"):
+        with pytest.raises(ConfigError, match="no empty keyframe"):
+            TransferConfig(strength=text)
+    with pytest.raises(ConfigError, match="^second_weight: values must lie"):
+        transfer(content, style_clip, model=model, second_style=style_clip, second_weight=1.5)
+    with pytest.raises(ConfigError, match="^second_weight: second_style is given without its share"):
+        transfer(content, style_clip, model=model, second_style=style_clip)
+    with pytest.raises(TypeError, match="part_styles must map body part names to styles"):
+        transfer(content, style_clip, model=model, part_styles=[("arms", style_clip)])  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"part_styles\['arms'\]: give a clip"):
+        transfer(content, style_clip, model=model, part_styles={"arms": None})  # type: ignore[dict-item]
+    with pytest.raises(ConfigError, match="left-arm both kept"):
+        transfer(content, style_clip, model=model, part_styles={"arms": style_clip}, keep_part="left-arm")
+    with pytest.raises(TypeError, match=r"read_bvh's \(motion, layout\)\?\): pass its motion"):
+        transfer((content, None), style_clip, model=model)  # type: ignore[arg-type]
     with pytest.raises(TypeError, match="model must be a StyleModel or a model file's path"):
         transfer(content, style_clip, model=3)  # type: ignore[arg-type]
     result = transfer(content, style_clip, model=model, strength=0.0)
@@ -65,6 +84,8 @@ def test_wrong_types_say_what_to_pass(model, content: Motion, style_clip: Motion
         write_bvh(tmp_path / "out.bvh", result)  # type: ignore[arg-type]
     with pytest.raises(UsageError, match="for binary glTF name the file .glb and use elastyle.write_clip"):
         write_bvh(tmp_path / "out.glb", result.motion)
+    with pytest.raises(TypeError, match="the layout must be the BvhLayout read with the clip"):
+        write_bvh(tmp_path / "out.bvh", result.motion, "x")  # type: ignore[arg-type]
     assert not list(tmp_path.iterdir())
     write_clip(tmp_path / "out.glb", result.motion)  # the format by the name
     assert (tmp_path / "out.glb").read_bytes()[:4] == b"glTF"
@@ -183,6 +204,9 @@ def test_the_explain_record_on_the_content_clock_and_with_its_settings(
         row["style_start_s"] == round(row["style_start_frame"] / record["model_fps"], 4) for row in rows
     )
     assert record["timing"] == "content" and record["strength"] == "0:0,2:1"
+    # every option, so two records of different outputs tell them apart (decode, cleanup, smoothing ...)
+    assert {spec.name for spec in fields(TransferConfig)} <= set(record)
+    assert record["decode"] == "residual" and record["cleanup"] is True
     walked = transfer(
         content, style_clip, model=model, second_style=style_clip, second_weight="2:0,3:1"
     ).explain
@@ -206,6 +230,25 @@ def test_options_the_method_does_not_read_are_noted(model, content: Motion, styl
     assert any(note.startswith("note: --stretch has no effect here (--method rigid") for note in notes)
     notes = transfer(content, style_clip, model=model, stretch_step_s=5).explain["notes"]
     assert any(note.startswith("note: --stretch-step-s has no effect here") for note in notes)
+    # each measured byte-identical to the option's absence (a probe found them unsaid)
+    for options, said in (
+        (
+            {"decode": "plain", "residual_smooth_s": 5.0},
+            "--residual-smooth-s has no effect here (--decode plain",
+        ),
+        (
+            {"cleanup": False, "root_follows_legs": 0.0},
+            "--root-follows-legs has no effect here (--no-cleanup",
+        ),
+        ({"placement": "fixed", "timing": "content"}, "--timing has no effect here (--placement fixed"),
+        ({"method": "adain", "whiten_floor": 1e-4}, "--whiten-floor has no effect here (--method adain"),
+        (
+            {"keep_part": "arms", "arm_rhythm_above": 0.01},
+            "--arm-rhythm-above has no effect here (--keep-part",
+        ),
+    ):
+        notes = transfer(content, style_clip, model=model, **options).explain["notes"]
+        assert any(note.startswith(f"note: {said}") for note in notes), (options, notes)
     assert not any(
         "no effect" in note for note in transfer(content, style_clip, model=model).explain["notes"]
     )

@@ -51,6 +51,27 @@ def test_convert_resamples_and_mirrors(walk: str, tmp_path: Path, dataset_clips:
     assert main(["convert", walk, "-o", str(out), "--force"]) == 0
 
 
+def test_a_mirror_of_a_rotation_only_rig_stays_rotation_only(
+    walk: str, tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
+    """The mirror gives each joint the other side's offset, which the captured rig's slight asymmetry (up to
+    0.4 mm) left apart from its own: every joint of a rig with rotation channels alone was written with
+    position channels. Within a thousandth of the rig's size a joint stays as its file had it."""
+    from elastyle import write_bvh
+
+    motion, layout = clip_named(dataset_clips, "dataset-2_walk_normal_005").read()
+    rotations_only = layout._replace(
+        channels=(layout.channels[0], *(channels[3:] for channels in layout.channels[1:])),
+        first_values=(),
+    )
+    rig = tmp_path / "rig.bvh"
+    write_bvh(rig, motion, rotations_only)  # the root and the moving pelvis keep their position channels
+    assert rig.read_text().count("CHANNELS 6") == 2
+    out = tmp_path / "mirrored.bvh"
+    assert main(["convert", str(rig), "-o", str(out), "--mirror"]) == 0
+    assert out.read_text().count("CHANNELS 6") == 2
+
+
 def test_strength_zero_writes_the_contents_own_numbers(
     walk: str, style: str, tmp_path: Path, dataset_clips: list[ClipRef]
 ) -> None:

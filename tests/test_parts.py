@@ -71,7 +71,7 @@ def test_a_kept_part_is_the_content_itself(model, clips: dict[str, Motion]) -> N
 
 
 def test_an_unknown_part_is_a_clear_error(model, clips: dict[str, Motion]) -> None:  # type: ignore[no-untyped-def]
-    with pytest.raises(ConfigError, match="--keep-part: unknown body part 'tail'"):
+    with pytest.raises(ConfigError, match="^keep_part: unknown body part 'tail'"):
         transfer(clips["walk_normal_005"], clips["walk_masculine_010"], model=model, keep_part="tail")
 
 

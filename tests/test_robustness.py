@@ -174,6 +174,12 @@ def test_verbose_works_after_the_command_too(tmp_path: Path) -> None:
         (["--at", "2"], "--at"),
         (["--over", "1"], "--over"),
         (["--method", "magic"], "--method"),
+        (["--strength=-1:0,2:1"], "--strength: keyframe times are seconds from 0"),
+        (["--strength", "0:0,2:1,"], "--strength: cannot read"),
+        (["--keep-part", "tail"], "--keep-part: unknown body part"),
+        (["--style", ""], "--style: an empty path"),
+        (["--model", ""], "--model: an empty path"),
+        (["--explain", ""], "--explain: an empty path"),
     ],
 )
 def test_every_wrong_option_exits_2_before_reading_anything(
@@ -218,7 +224,7 @@ def test_every_config_field_is_a_transfer_flag() -> None:
 def test_config_rejects_bad_values_from_python_too() -> None:
     from elastyle import ConfigError, TransferConfig
 
-    with pytest.raises(ConfigError, match="--stretch"):
+    with pytest.raises(ConfigError, match="^stretch: must lie in"):  # named as Python names it
         TransferConfig(stretch=1.5)
     with pytest.raises(ConfigError, match="unknown transfer option 'strenght'"):
         TransferConfig.of(strenght=0.5)
@@ -390,6 +396,44 @@ def test_same_transfer_is_byte_identical_across_processes(
         assert result.returncode == 0, result.stderr
         outputs.append(out.read_bytes())
     assert outputs[0] == outputs[1]
+
+
+def test_an_empty_content_and_a_malformed_scheduler_are_usage_errors(
+    tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
+    """An empty path (an unset shell variable) read as the current folder and transferred every clip under
+    it; a scheduler address without a port was an internal error."""
+    walk, proud = _dataset_copies(
+        tmp_path / "clips", dataset_clips, ["dataset-2_walk_normal_005", "dataset-2_walk_active_010"]
+    )
+    result = _cli("transfer", "", "--style", str(proud), "-o", str(tmp_path / "out") + "/")
+    assert result.returncode == 2 and "the content: an empty path" in result.stderr, result.stderr
+    result = _cli(
+        "transfer", str(walk), str(proud), "--style", str(proud), "-o", str(tmp_path / "out") + "/",
+        "--scheduler", "nonsense",
+    )  # fmt: skip
+    assert result.returncode == 2, result.stderr
+    assert (
+        "--scheduler nonsense: not a scheduler's address" in result.stderr
+        and "Traceback" not in result.stderr
+    )
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_stated_unit_that_makes_the_body_a_giant_is_questioned(
+    tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
+    walk, active = _dataset_copies(
+        tmp_path / "clips", dataset_clips, ["dataset-2_walk_normal_005", "dataset-2_walk_active_010"]
+    )
+    result = _cli(
+        "transfer", str(walk), "--style", str(active), "-o", str(tmp_path / "x.bvh"), "--units", "m"
+    )
+    assert result.returncode == 0 and "the body stands 146 m tall: is that its unit?" in result.stderr
+    result = _cli(
+        "transfer", str(walk), "--style", str(active), "-o", str(tmp_path / "y.bvh"), "--units", "cm"
+    )
+    assert result.returncode == 0 and "is that its unit" not in result.stderr
 
 
 def _dataset_copies(folder: Path, dataset_clips: list[ClipRef], stems: list[str]) -> list[Path]:

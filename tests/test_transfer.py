@@ -299,6 +299,35 @@ def test_a_clip_on_another_floor_stands_as_high_above_it(  # type: ignore[no-unt
     np.testing.assert_array_equal(at_strength_0.translations, raised(content, floor_cm).translations)
 
 
+def test_legs_that_keep_their_own_action_over_most_of_the_clip_are_noted(
+    dataset_clips: list[ClipRef],
+) -> None:
+    """A walk given a run's style keeps its legs' action throughout: said, as a walk given a walk's is not
+    (a slowed walk given a fast one came back nearly as it was, and nothing said why)."""
+    walk, run, active = (
+        clip_named(dataset_clips, f"dataset-2_{name}").read()[0]
+        for name in ("walk_normal_005", "run_active_005", "walk_active_010")
+    )
+    said = "legs keep their own action over 100 % of the clip"
+    assert any(said in note for note in transfer(walk, run).explain["notes"])
+    assert not any("legs keep their own action" in note for note in transfer(walk, active).explain["notes"])
+
+
+def test_fading_the_strength_out_keeps_the_feet_planted(dataset_clips: list[ClipRef]) -> None:
+    """Fading out, the pelvis comes back to the content's path over planted feet as the strength falls: the
+    root's move, blended back with the clean-up below strength 0.25, slid a stance foot 75 to 150 cm/s (an
+    elderly walk's style faded out over 2.5 s skated 21.8 cm/s against 12.8 at full strength)."""
+    from elastyle.eval.metrics import floor_skating_cm_s
+
+    content, style = (
+        clip_named(dataset_clips, f"dataset-2_{name}").read()[0]
+        for name in ("walk_normal_005", "walk_elderly_010")
+    )
+    full = floor_skating_cm_s(transfer(content, style).motion)
+    faded = floor_skating_cm_s(transfer(content, style, strength="0:1,5:1,7.5:0").motion)
+    assert faded <= full + 3.0, (faded, full)  # measured 13.3 and 12.8
+
+
 def _hand_ranges_cm(motion: Motion) -> np.ndarray:
     """(H,) how far each hand rises and falls relative to the pelvis (90th - 10th percentile height)."""
     from elastyle.core.body import centimetres_per_unit, find_limbs

@@ -12,6 +12,7 @@ import pytest
 from elastyle import write_bvh
 from elastyle.core.motion import Motion
 from elastyle.core.up import standing_axis, turned_back, turned_up
+from elastyle.errors import ConfigError
 from elastyle.io.dataset import ClipRef, read_clip
 from tests.conftest import clip_named
 
@@ -112,7 +113,7 @@ def test_a_stated_up_is_checked_and_handed_to_every_reading_process(
 
     walk = clip_named(dataset_clips, "dataset-2_walk_normal_005")
     z_up = _z_up_copy(walk, tmp_path / "z.bvh")
-    with pytest.raises(ValueError, match="up must be one of auto, y, z"):
+    with pytest.raises(ConfigError, match="up must be one of auto, y, z"):
         read_clip(z_up, up="Z")
     with caplog.at_level("WARNING"):
         read_clip(z_up, up="y")

@@ -55,4 +55,11 @@ class UsageError(ElastyleError):
 
 
 class ConfigError(UsageError):
-    """A transfer option out of its declared range or choices (from Python or the command line)."""
+    """A transfer option out of its declared range or choices (from Python or the command line).
+
+    option: the option's Python name where the message starts with it ("strength: ..."): the command line
+    says its flag there instead (`elastyle.cli.options.config_from_args`)."""
+
+    def __init__(self, message: str, option: str | None = None) -> None:
+        super().__init__(message)
+        self.option = option

@@ -72,6 +72,7 @@ StyleInput = Motion | Sequence[Motion] | StyleLibrary
 # with residual decoding the foot clean-up acts in full from this strength on, and in proportion below it
 CLEAN_FULL_STRENGTH = 0.25
 SHORT_PATCH_S = 0.5  # patches shorter than this (seconds) get a warning that the output jitters
+LEGS_KEPT_NOTE = 0.5  # a note says so where the legs keep their own action over this share of the output
 log = logging.getLogger(__name__)
 
 
@@ -90,7 +91,7 @@ def transfer(
     *,
     model: StyleModel | str | os.PathLike[str] | None = None,
     second_style: StyleInput | None = None,
-    second_weight: float | str | Schedule = 0.0,
+    second_weight: float | str | Schedule | None = None,
     style_names: Sequence[str] | None = None,
     second_style_names: Sequence[str] | None = None,
     part_styles: Mapping[str, StyleInput] | None = None,
@@ -102,7 +103,7 @@ def transfer(
     style: one clip, several clips (one library), or a prepared `StyleLibrary`.
     config, options: a `TransferConfig` and/or its fields by name (`strength=0.5, method="rigid"`).
     second_style, second_weight: a second library and its share, 0 to 1 (keyframed in content seconds for
-        a transition from `style` to `second_style`, constant for a blend).
+        a transition from `style` to `second_style`, constant for a blend), which a second style needs.
     part_styles: body part names (`core.parts`: legs, spine, left-arm, right-arm, arms) and the style
         whose manner those parts take instead (on the output's one clock, which `style` sets).
     model: a `StyleModel` (`load_model`) or a model file's path; None: the model that prepared a given
@@ -116,9 +117,17 @@ def transfer(
     where something else than a clip is given.
     """
     config = TransferConfig.of(config, **options)
-    if second_style is None and np.any(_as_schedule(second_weight).values):
+    if second_style is None and second_weight is not None and np.any(_as_schedule(second_weight).values):
         raise ConfigError("second_weight is the share of second_style, and no second_style is given")
     _check_clip_type(content, "content")
+    _check_part_styles(part_styles, config.kept_parts)
+    if second_style is not None and second_weight is None:
+        raise ConfigError(
+            "second_weight: second_style is given without its share; give it (0 to 1) or keyframes "
+            "('SECONDS:SHARE,...') for a transition",
+            "second_weight",
+        )
+    second_weight = 0.0 if second_weight is None else second_weight
     check_finite_clip(content, content_name)
     if model is None:  # a prepared library's own model, unless another is given
         inputs = (style, second_style, *(part_styles or {}).values())
@@ -150,10 +159,9 @@ def transfer(
     patch_frames = min(requested_patch_frames(config, fps), libraries[0].longest_clip)
     if config.method in ("elastic", "rigid") and working.num_frames < patch_frames:
         _say(notes, short_content_note(content_name, content.duration_s, patch_frames / fps))
-    idle, why = config.unread_options(patch_frames, fps)
-    if idle:
+    for idle, why in config.unread_options(patch_frames, fps):
         _say(notes, f"note: {', '.join(idle)} {'has' if len(idle) == 1 else 'have'} no effect here ({why})",
-             once=("idle", tuple(idle), config.method))  # fmt: skip
+             once=("idle", tuple(idle), why))  # fmt: skip
     if config.method in ("elastic", "rigid") and config.patch_s < SHORT_PATCH_S:
         _say(notes, (
             f"warning: --patch-s {config.patch_s:g}: windows under {SHORT_PATCH_S:g} s hold less than a stride, so "
@@ -176,14 +184,14 @@ def transfer(
             "the arm its file lists first is taken for the left one (left-arm and right-arm may be swapped)"
         ))  # fmt: skip
     by_part = [
-        (part_joints(content.skeleton, parse_parts(names, "--style-part"), content_name),
+        (part_joints(content.skeleton, parse_parts(names, "part_styles"), content_name),
          as_library(model, part_style, None, config.mirror_style, config.reverse_style))
         for names, part_style in (part_styles or {}).items()
     ]  # fmt: skip
     styled_joints = np.concatenate([joints for joints, _ in by_part]) if by_part else np.zeros(0, np.int64)
     if len(joint_set(styled_joints)) < len(styled_joints):
         raise ConfigError(
-            f"{content_name}: a body part is given two styles (--style-part); give each part one"
+            f"{content_name}: a body part is given two styles (part_styles); give each part one"
         )
 
     # on the floor of the model's takes (the model reads the pelvis's height above y = 0); back at the end
@@ -201,6 +209,7 @@ def transfer(
     # whiten, match, place, cross-fade and colour: one track per style library on a content-time grid
     grid = content_grid(working.num_frames)  # (G,) content frames
     actions = action_channels(working, world)  # (T, A) what the body does, matched beside the latents
+    walk_said = True  # a note on the content's walk already says why its legs may keep their own action
     if not config.reverse_style and walks_backwards(actions):
         _say(notes, (
             f"note: {content_name} walks backwards; the style's forward steps will not match its legs, which "
@@ -212,6 +221,8 @@ def transfer(
             "clips step sideways too, elsewhere its legs keep their own action and pace (the style shows in "
             "the upper body)"
         ))  # fmt: skip
+    else:
+        walk_said = False
     columns = part_channels(working.skeleton)  # each body part's action columns
     still = still_frames(actions, working.skeleton, fps)  # (T,) a stop or an idle: no pace to take
     tracks = [
@@ -279,7 +290,17 @@ def transfer(
     legs_keep = (
         np.max(keep[:, automatic_legs], axis=1) if len(automatic_legs) else np.zeros(len(keep))
     )  # (N,)
+    kept_share = float(np.mean(legs_keep > 0.5)) if len(legs_keep) else 0.0
+    if kept_share >= LEGS_KEPT_NOTE and not walk_said:
+        _say(notes, (
+            f"note: {content_name}: its legs keep their own action over {100 * kept_share:.0f} % of the clip (they "
+            "act otherwise than in the style's windows: another pace or gait, or no steps), so the style shows "
+            "above them there"
+        ))  # fmt: skip
     root_share = config.root_follows_legs * (1 - legs_keep)  # (N,)
+    # ... and as far as the strength goes: fading out, the pelvis comes back to the content's path over planted
+    # feet (blended back with the clean-up below strength 0.25, a stride's move slid the feet 75 to 150 cm/s)
+    root_applied = np.clip(strength_out, 0.0, 1.0)  # (N,)
     if config.decode == "plain":
         keep[:, automatic] *= np.clip(strength_out, 0.0, 1.0)[:, None]
     else:  # at strength 0 the output is the content already, to the last bit
@@ -292,7 +313,7 @@ def transfer(
         on_statistics = fallback_weights(tracks, shares, grid, content_time, positions) > 0.5  # (N,)
         also, foot_floor = held_footing(content_at, on_statistics) if np.any(on_statistics) else (None, None)
         motion = blend_by_strength(
-            motion, plant_feet(motion, root_share, also, foot_floor, lowest_ground), clean_share
+            motion, plant_feet(motion, root_share, also, foot_floor, lowest_ground, root_applied), clean_share
         )
     if np.any(keep > 0):
         reference = content_at if base_at is None else base_at
@@ -325,7 +346,9 @@ def transfer(
             also, foot_floor = held_footing(content_at, kept_legs)  # (N, F), (N, F, 2)
             if coloured_at is not None:  # coloured legs: the whole clean-up again
                 motion = blend_by_strength(
-                    motion, plant_feet(motion, root_share, also, foot_floor, lowest_ground), clean_share
+                    motion,
+                    plant_feet(motion, root_share, also, foot_floor, lowest_ground, root_applied),
+                    clean_share,
                 )
             else:
                 # legs that keep the content's action (a turn matched against straight windows) mix two
@@ -348,7 +371,7 @@ def transfer(
         )
         record["notes"] += [note for note in part_record["notes"] if note not in record["notes"]]
         record["part_styles"] = [
-            {"parts": list(parse_parts(names, "--style-part")), **entry}
+            {"parts": list(parse_parts(names, "part_styles")), **entry}
             for names, entry in zip((part_styles or {}).keys(), part_record["styles"])
         ]
     if size != 1.0 or lift != 0.0:  # back to the content's own floor and size, on its own skeleton
@@ -409,17 +432,49 @@ def _arms_treated_apart(kept_parts: Sequence[str], part_styles: Mapping[str, Sty
     def treatment(arm: str) -> str | None:
         if arm in kept_parts:
             return "kept"
-        return next((names for names in part_styles or {} if arm in parse_parts(names, "--style-part")), None)
+        return next((names for names in part_styles or {} if arm in parse_parts(names, "part_styles")), None)
 
     return treatment("left-arm") != treatment("right-arm")
 
 
 def _check_clip_type(value: object, role: str) -> None:
     """A TypeError that says what to do when a path or other object is given where a clip belongs."""
+    if isinstance(value, tuple) and value and isinstance(value[0], Motion):
+        raise TypeError(
+            f"the {role} must be a Motion, got a tuple of a Motion and more (read_bvh's (motion, layout)?): "
+            "pass its motion"
+        )
     if not isinstance(value, Motion):
         raise TypeError(
             f"the {role} must be a Motion, got {type(value).__name__} {value!r:.80}: read a file first with "
             "elastyle.read_bvh(path), which returns (motion, layout)"
+        )
+
+
+def _check_part_styles(part_styles: object, kept: tuple[str, ...]) -> None:
+    """A TypeError where `part_styles` is no mapping of part names to styles, a ConfigError where a part is
+    both kept and styled by another library (the command line's rule)."""
+    if part_styles is None:
+        return
+    if not isinstance(part_styles, Mapping):
+        raise TypeError(
+            f"part_styles must map body part names to styles, e.g. {{'arms': clip}}, got "
+            f"{type(part_styles).__name__} {part_styles!r:.60}"
+        )
+    for names, style in part_styles.items():
+        if not isinstance(names, str):
+            raise TypeError(
+                f"part_styles: a key must name body parts ('arms', 'legs,spine'), got {names!r:.40}"
+            )
+        if style is None:
+            raise TypeError(
+                f"part_styles[{names!r}]: give a clip, clips or a prepared StyleLibrary, got None"
+            )
+    both = sorted({p for names in part_styles for p in parse_parts(names, "part_styles")} & set(kept))
+    if both:
+        raise ConfigError(
+            f"part_styles: {', '.join(both)} both kept (keep_part) and given another style; give one",
+            "part_styles",
         )
 
 
@@ -445,4 +500,4 @@ def _check_finite(motion: Motion, step: str, content_name: str) -> None:
 def _as_schedule(value: float | str | Schedule) -> Schedule:
     if isinstance(value, Schedule):
         return value
-    return Schedule.parse(value if isinstance(value, str) else str(float(value)), "second-weight")
+    return Schedule.parse(value if isinstance(value, str) else str(float(value)), "second_weight")

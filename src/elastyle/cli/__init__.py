@@ -9,7 +9,9 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 from contextlib import nullcontext
 from typing import NoReturn
@@ -204,6 +206,10 @@ def build_parser() -> _OneLineParser:
     return parser
 
 
+def _interrupted(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args, unknown = parser.parse_known_args(argv)
@@ -223,6 +229,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     # the small products here the fast way (a pooled library's 64 x 64 eigendecomposition took 28 to 56 ms
     # on two threads of a loaded 2-core machine, 0.5 on one); training sets its own threads (--threads)
     limit = nullcontext() if args.command == "train" else threadpool_limits(limits=1, user_api="blas")
+    if threading.current_thread() is threading.main_thread():  # a kill ends it as Ctrl-C does
+        signal.signal(signal.SIGTERM, _interrupted)
     try:
         with limit:
             return int(args.run(args) or 0)

@@ -10,7 +10,10 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 import sys
+import threading
+import time
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -43,6 +46,7 @@ class Job(NamedTuple):
     force: bool
     explain: str | None
     inputs: tuple[str, ...]  # what the command reads: never written
+    model_file: str | None  # as given (--model), None for the shipped model: recorded in the explain file
 
 
 def transfer_one(job: Job, content_spec: str, target: Path) -> None:
@@ -52,7 +56,7 @@ def transfer_one(job: Job, content_spec: str, target: Path) -> None:
     output, explain = _transfer(job, content_spec, target)
     _write(job, target, output)
     if job.explain:
-        explain = dict(explain, content=content_spec, output=str(target))
+        explain = dict(explain, content=content_spec, output=str(target), model=job.model_file or "shipped")
         write_text_atomic(
             job.explain, json.dumps(explain, indent=1), force=job.force, inputs=(*job.inputs, str(target))
         )
@@ -100,9 +104,20 @@ def transfer_task(job: Job, content_spec: str, target: Path) -> bytes | str:
 _WORKER_JOB: list[Job] = []
 
 
+PARENT_POLL_S = 1.0  # how often a batch worker checks that the command that started it still runs
+
+
 def _worker_start(job: Job) -> None:
     _WORKER_JOB[:] = [job]
     logging.getLogger("elastyle").setLevel(logging.WARNING)
+    parent = os.getppid()
+
+    def watch() -> None:  # a worker whose command was killed (not Ctrl-C: a kill of it alone) ends too
+        while os.getppid() == parent:
+            time.sleep(PARENT_POLL_S)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()
 
 
 def _worker_transfer(task: tuple[str, Path]) -> bytes | str:
@@ -159,6 +174,10 @@ def run_on_dask(job: Job, contents: list[str], targets: list[Path], address: str
 
     try:
         client = Client(address, timeout=f"{CONNECT_TIMEOUT_S}s")
+    except ValueError as error:  # no port, an unknown protocol
+        raise UsageError(
+            f"--scheduler {address}: not a scheduler's address ({error}); give tcp://HOST:PORT"
+        ) from None
     except (OSError, TimeoutError) as error:
         raise ElastyleError(f"{address}: cannot reach the Dask scheduler ({error})") from None
     with client, output_folder(targets):

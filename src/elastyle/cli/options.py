@@ -8,8 +8,16 @@ dataclass itself when it is built, so a wrong value is reported the same way fro
 from __future__ import annotations
 
 import argparse
-from dataclasses import MISSING, fields
+from dataclasses import MISSING, Field, fields
 from typing import Any
+
+from elastyle.errors import ConfigError
+
+
+def _flag(spec: Field[Any]) -> str:
+    """A field's flag: `--patch-s` for `patch_s`; a boolean that defaults on `--no-x`."""
+    flag = spec.name.replace("_", "-")
+    return f"--no-{flag}" if spec.default is True else f"--{flag}"
 
 
 def add_config_flags(parser: argparse.ArgumentParser, config_type: type) -> None:
@@ -19,7 +27,7 @@ def add_config_flags(parser: argparse.ArgumentParser, config_type: type) -> None
         default = spec.default if spec.default is not MISSING else None
         help_text = spec.metadata.get("help", "")
         if isinstance(default, bool):
-            name = f"--no-{flag}" if default else f"--{flag}"
+            name = _flag(spec)
             action = "store_false" if default else "store_true"
             # the help says what the field does; a --no-x flag turns that off
             shown = f"turn off what is on by default: {help_text}" if default else help_text
@@ -43,7 +51,13 @@ def config_from_args(config_type: type, args: argparse.Namespace) -> Any:
         if spec.metadata.get("listed"):
             value = spec.default if value is None else ",".join(value)
         values[spec.name] = value
-    return config_type(**values)
+    try:
+        return config_type(**values)
+    except ConfigError as error:  # its message names the field as Python does: here, its flag
+        flags = {spec.name: _flag(spec) for spec in fields(config_type)}
+        if error.option not in flags or not str(error).startswith(error.option):
+            raise
+        raise ConfigError(flags[error.option] + str(error)[len(error.option) :], error.option) from None
 
 
 def _shown(value: Any) -> str:

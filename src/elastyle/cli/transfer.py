@@ -169,6 +169,7 @@ def run_transfer(args: argparse.Namespace) -> int:
     from elastyle.steps.schedule import Schedule
 
     config = config_from_args(TransferConfig, args)  # validated once: a bad value is a UsageError
+    _check_no_empty_paths(args)
     args.content = _content_clips(args.content)
     _check_style_options(args)
     from elastyle.core.parts import parse_parts
@@ -183,6 +184,8 @@ def run_transfer(args: argparse.Namespace) -> int:
     contents, targets = _outputs(args)
     if args.scheduler and len(args.content) > 1:
         require_dask()
+    elif args.scheduler:
+        log.info("note: --scheduler runs a batch of content clips; this one clip is transferred here")
     _check_inputs_readable(_inputs(args))
     for spec in args.content:  # a missing content file is named before any work on the style
         if not Path(spec).exists() and ".zip" not in spec.lower():
@@ -235,7 +238,7 @@ def run_transfer(args: argparse.Namespace) -> int:
     part_styles = {names: library([spec]) for names, spec in _style_parts(args)}
     job = Job(
         style, model, config, second, second_weight, part_styles, args.units, read_up(), args.force,
-        args.explain, _inputs(args),
+        args.explain, _inputs(args), args.model,
     )  # fmt: skip
     if not contents:  # every output exists and --skip-existing leaves them
         return 0
@@ -265,6 +268,23 @@ def _style_parts(args: argparse.Namespace) -> list[tuple[str, str]]:
         taken |= set(parts)
         pairs.append((names, clip))
     return pairs
+
+
+def _check_no_empty_paths(args: argparse.Namespace) -> None:
+    """A UsageError naming the argument given an empty path (an unset shell variable, `--style "$S"`): read
+    as the current folder, it named every clip under it."""
+    named = {
+        "the content": args.content,
+        "--style": args.style,
+        "--then-style": args.then_style or [],
+        "--blend-style": args.blend_style or [],
+        "--model": [] if args.model is None else [args.model],
+        "--explain": [] if args.explain is None else [args.explain],
+        "--scheduler": [] if args.scheduler is None else [args.scheduler],
+    }
+    for name, values in named.items():
+        if any(not value.strip() for value in values):
+            raise UsageError(f"{name}: an empty path or address (an unset shell variable?); give one")
 
 
 def _check_style_options(args: argparse.Namespace) -> None:

@@ -295,10 +295,22 @@ def leg_length(skeleton: Skeleton, limbs: Limbs) -> float:
     return float(np.mean(np.linalg.norm(rest[limbs.hips] - rest[limbs.ankles], axis=-1)))
 
 
+PLAUSIBLE_HEIGHT_CM = (30.0, 400.0)  # a stated unit that makes a body stand outside this is questioned
+
+
 def guessed_unit_note(skeleton: Skeleton, name: str) -> str | None:
-    """A one-line note when the length unit is guessed (not stated) as other than centimetres."""
+    """A one-line note when the length unit is guessed (not stated) as other than centimetres, or a warning
+    when a stated one makes the body stand implausibly tall or short (`PLAUSIBLE_HEIGHT_CM`)."""
     if skeleton.unit_cm is not None:
-        return None
+        unit = next((unit for unit, cm in UNITS.items() if cm == skeleton.unit_cm), None)
+        height_cm = standing_height(skeleton) * skeleton.unit_cm
+        low, high = PLAUSIBLE_HEIGHT_CM
+        if unit is None or low <= height_cm <= high:
+            return None
+        return (
+            f"warning: {name}: read in {unit}, the body stands {height_cm / 100:.3g} m tall: is that its unit? "
+            "(--units states a BVH clip's)"
+        )
     unit_cm = centimetres_per_unit(skeleton)
     if unit_cm == UNITS["cm"]:
         return None

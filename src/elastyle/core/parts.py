@@ -117,10 +117,12 @@ def parse_parts(text: str, flag: str) -> tuple[str, ...]:
         if not word:
             continue
         if word not in PART_NAMES:
-            raise ConfigError(f"{flag}: unknown body part {word!r}; choose from {', '.join(PART_NAMES)}")
+            raise ConfigError(
+                f"{flag}: unknown body part {word!r}; choose from {', '.join(PART_NAMES)}", flag
+            )
         names += [n for n in GROUPS.get(word, (word,)) if n not in names]
     if text.strip() and not names:
-        raise ConfigError(f"{flag}: {text!r} names no body part; choose from {', '.join(PART_NAMES)}")
+        raise ConfigError(f"{flag}: {text!r} names no body part; choose from {', '.join(PART_NAMES)}", flag)
     return tuple(names)
 
 

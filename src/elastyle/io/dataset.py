@@ -22,7 +22,7 @@ import numpy as np
 
 from elastyle.core.motion import Motion
 from elastyle.core.up import UP_AXES, detected_axis, turned_up
-from elastyle.errors import BvhError, DatasetError
+from elastyle.errors import BvhError, ConfigError, DatasetError
 from elastyle.io.bvh_layout import BvhLayout
 from elastyle.io.bvh_read import parse_bvh, read_bvh, read_input
 from elastyle.io.files import input_problem
@@ -63,7 +63,7 @@ class ClipRef(NamedTuple):
             return motion, BvhLayout.default(motion.skeleton, motion.fps, moving)
         up = up or _READ_UP[0]
         if up not in READ_UPS:
-            raise ValueError(f"up must be one of {', '.join(READ_UPS)}, got {up!r}")
+            raise ConfigError(f"up must be one of {', '.join(READ_UPS)}, got {up!r}", "up")
         motion, layout = read_bvh(self.name) if self.archive is None else parse_bvh(self.data(), self.name)
         detected = detected_axis(motion)
         axis = (detected or "y") if up == "auto" else up

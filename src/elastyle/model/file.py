@@ -295,6 +295,8 @@ def as_model(model: StyleModel | str | os.PathLike[str] | None) -> StyleModel:
 
 def load_model(path: str | os.PathLike[str] | None = None) -> StyleModel:
     """Load a model file (the shipped pretrained model when `path` is None); `ModelError` if unusable."""
+    if path is not None and not str(path).strip():
+        raise ModelError("the model's path is empty; give a model file (.npz), or none for the shipped model")
     path = default_model_path() if path is None else Path(path)
     problem = input_problem(path)
     if problem is not None:

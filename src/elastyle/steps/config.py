@@ -173,9 +173,10 @@ class TransferConfig:
     cleanup: bool = option(True, "plant the feet: contacts pinned by two-joint leg IK")
     root_follows_legs: float = option(
         0.5,
-        "the share of the stance feet's drift the root takes before the clean-up: 0 keeps the content's path "
-        "exactly (the legs stretch to cover it), 1 moves the root with the legs' stride (the path may end "
-        "short or long)",
+        "the share of the stance feet's drift the root takes before the clean-up, where the body travels: 0 "
+        "keeps the content's path exactly (the legs stretch to cover it), 1 moves the root with the legs' "
+        "stride; the root strays at most a tenth of the path's length and 1.5 leg lengths from the path (the "
+        "share is lowered as a whole to stay within it, so past that a larger share changes nothing)",
         low=0.0, high=1.0,
     )  # fmt: skip
 
@@ -191,18 +192,19 @@ class TransferConfig:
                 value = value.item()
                 object.__setattr__(self, spec.name, value)
             if spec.type == "bool" and not isinstance(value, (bool, np.bool_)):
-                raise ConfigError(f"--{spec.name.replace('_', '-')}: must be True or False, got {value!r}")
+                raise ConfigError(f"{spec.name}: must be True or False, got {value!r}", spec.name)
             if spec.type == "str" and not isinstance(value, str):
-                raise ConfigError(f"--{spec.name.replace('_', '-')}: must be text, got {value!r}")
+                raise ConfigError(f"{spec.name}: must be text, got {value!r}", spec.name)
             _check(spec.name, value, spec.metadata)
-        parse_parts(self.keep_part, "--keep-part")
+        parse_parts(self.keep_part, "keep_part")
         if isinstance(self.strength, str):
             Schedule.parse(self.strength, "strength")
         elif isinstance(self.strength, numbers.Real) and not isinstance(self.strength, (bool, np.bool_)):
             Schedule.parse(str(float(self.strength)), "strength")
         else:
             raise ConfigError(
-                f"--strength: a number from 0 to 1 or a schedule 'SECONDS:VALUE,...', got {self.strength!r}"
+                f"strength: a number from 0 to 1 or a schedule 'SECONDS:VALUE,...', got {self.strength!r}",
+                "strength",
             )
 
     @staticmethod
@@ -223,7 +225,7 @@ class TransferConfig:
     @property
     def kept_parts(self) -> tuple[str, ...]:
         """The parts `keep_part` names, groups expanded."""
-        return parse_parts(self.keep_part, "--keep-part")
+        return parse_parts(self.keep_part, "keep_part")
 
     @property
     def strength_schedule(self) -> Schedule:
@@ -234,18 +236,25 @@ class TransferConfig:
         """`match_step_s` in frames at `fps` (at least 1)."""
         return max(1, int(round(self.match_step_s * fps)))
 
-    def unread_options(self, patch_frames: int, fps: float) -> tuple[list[str], str]:
-        """The options set away from their defaults that change nothing here (as flags), and why: the
-        statistics methods (wct, adain) match no patches on the content's own clock, rigid tries no stretch,
-        and a stretch step wider than the stretch range tries only the patch's own length."""
+    def unread_options(self, patch_frames: int, fps: float) -> list[tuple[list[str], str]]:
+        """The options set away from their defaults that change nothing here (as flags), in groups, each with
+        why: the statistics methods (wct, adain) match no patches on the content's own clock, rigid tries no
+        stretch, a stretch step wider than the stretch range tries only the patch's own length, the fixed
+        placement keeps the content's clock, plain decoding has no residual, no clean-up has no root to
+        move, and kept arms take no windows to compare."""
         default = TransferConfig()
         patchless = ("placement", "timing", "patch_s", "stretch", "stretch_step_s", "stretch_centre")
-        unread, why = {
-            "wct": (patchless, "--method wct colours the content's own latents on its own clock, no patches"),
-            "adain": (patchless, "--method adain colours the content's own latents on its own clock, no patches"),
-            "rigid": (("stretch", "stretch_step_s", "stretch_centre"), "--method rigid reads every patch at its own length"),
-        }.get(self.method, ((), ""))  # fmt: skip
-        names = [name for name in unread if getattr(self, name) != getattr(default, name)]
+        unmatched = (
+            "action_weight", "match_step_s", "fallback_below", "keep_action_above", "legs_turning_above",
+            "kept_statistics", "arm_offset_above", "arm_rhythm_above",
+        )  # fmt: skip
+        colours = "colours the content's own latents on its own clock, no patches"
+        by_method: dict[str, list[tuple[tuple[str, ...], str]]] = {
+            "wct": [(patchless + unmatched, f"--method wct {colours}")],
+            "adain": [(patchless + unmatched + ("whiten_floor",), f"--method adain {colours}")],
+            "rigid": [(("stretch", "stretch_step_s", "stretch_centre"), "--method rigid reads every patch at its own length")],
+        }  # fmt: skip
+        groups = list(by_method.get(self.method, []))
         every_frame = replace(self, stretch_step_s=0.0).source_lengths(patch_frames, fps)
         chosen_step = self.stretch_step_s != default.stretch_step_s
         if (
@@ -253,9 +262,27 @@ class TransferConfig:
             and chosen_step
             and len(self.source_lengths(patch_frames, fps)) == 1 < len(every_frame)
         ):
-            names = ["stretch_step_s"]
-            why = "a stretch step wider than the stretch range tries only the patch's own length"
-        return ["--" + name.replace("_", "-") for name in names], why
+            groups.append(
+                (("stretch_step_s",), "a stretch step wider than the stretch range tries only the patch's own length")
+            )  # fmt: skip
+        if self.method in ("elastic", "rigid") and self.placement == "fixed":
+            groups.append(
+                (("stretch_centre", "timing"), "--placement fixed keeps the content's clock, searching no tempo")
+            )  # fmt: skip
+        if self.decode == "plain":
+            groups.append((("residual_smooth_s",), "--decode plain has no residual to smooth"))
+        if not self.cleanup:
+            groups.append((("root_follows_legs",), "--no-cleanup: no clean-up, whose root follows the legs"))
+        if {"left-arm", "right-arm"} <= set(self.kept_parts):
+            groups.append(
+                (("arm_offset_above", "arm_rhythm_above"), "--keep-part keeps both arms as the content performs them")
+            )  # fmt: skip
+        found = []
+        for names, why in groups:
+            changed = [name for name in names if getattr(self, name) != getattr(default, name)]
+            if changed:
+                found.append((["--" + name.replace("_", "-") for name in changed], why))
+        return found
 
     def source_lengths(self, patch_frames: int, fps: float, tempo: float = 1.0) -> IntArray:
         """Candidate source lengths L' (frames) for a patch of L frames: (1 - stretch) to (1 + stretch)
@@ -295,17 +322,16 @@ TransferConfig.__doc__ = (
 
 
 def _check(name: str, value: Any, metadata: Any) -> None:
-    """One field against its declared choices and range; `ConfigError` naming the flag."""
-    flag = "--" + name.replace("_", "-")
+    """One field against its declared choices and range; `ConfigError` naming the field."""
     choices = metadata.get("choices")
     if choices is not None and value not in choices:
-        raise ConfigError(f"{flag}: unknown value {value!r}; choose one of {', '.join(choices)}")
+        raise ConfigError(f"{name}: unknown value {value!r}; choose one of {', '.join(choices)}", name)
     low, high = metadata.get("low"), metadata.get("high")
     if low is None and high is None:
         return
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-        raise ConfigError(f"{flag}: must be a finite number, got {value!r}")
+        raise ConfigError(f"{name}: must be a finite number, got {value!r}", name)
     below = value <= low if metadata["low_open"] else value < low
     above = value >= high if metadata["high_open"] else value > high
     if below or above:
-        raise ConfigError(f"{flag}: must lie in {_range_text(metadata)}, got {value:g}")
+        raise ConfigError(f"{name}: must lie in {_range_text(metadata)}, got {value:g}", name)

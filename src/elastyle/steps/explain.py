@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import fields
 from typing import Any
 
 import numpy as np
@@ -87,22 +88,9 @@ def explain(
             entry["patch_s_used"] = round(track.patch_frames / fps, 4)
             notes += [text for _, text in patch_notes(library, track.patch_frames, config, fps)]
         styles.append(entry)
+    settings = {field.name: getattr(config, field.name) for field in fields(config)}  # every option
     return {
-        "method": config.method,
-        "placement": config.placement,
-        "patch_s": config.patch_s,
-        "stretch": config.stretch,
-        "stretch_centre": config.stretch_centre,
-        "action_weight": config.action_weight,
-        "match_step_s": config.match_step_s,
-        "fallback_below": config.fallback_below,
-        "keep_action_above": config.keep_action_above,
-        "legs_turning_above": config.legs_turning_above,
-        "kept_statistics": config.kept_statistics,
-        "arm_offset_above": config.arm_offset_above,
-        "arm_rhythm_above": config.arm_rhythm_above,
-        "keep_part": config.keep_part,
-        "timing": config.timing,
+        **settings,
         "strength": _strength(config),  # a number, or keyframes in content seconds ('SECONDS:VALUE,...')
         "model_fps": fps,
         "model_rate_frames": int(len(content_time)),  # the output's timeline at model_fps
