@@ -40,6 +40,16 @@ def test_info_prints_the_clip_facts(walk: str, capsys: pytest.CaptureFixture[str
     assert "joints:   22" in out and "30 fps" in out and "132 (6 per joint)" in out
 
 
+def test_main_leaves_its_callers_kill_handler_as_it_was(walk: str) -> None:
+    """A kill ends a command as Ctrl-C does, while it runs: main() inside a program gives the program's own
+    handler back (it stayed, and a later kill raised KeyboardInterrupt in the program)."""
+    import signal
+
+    before = signal.getsignal(signal.SIGTERM)
+    assert main(["info", walk]) == 0
+    assert signal.getsignal(signal.SIGTERM) is before
+
+
 def test_convert_resamples_and_mirrors(walk: str, tmp_path: Path, dataset_clips: list[ClipRef]) -> None:
     out = tmp_path / "mirrored60.bvh"
     assert main(["convert", walk, "-o", str(out), "--fps", "60", "--mirror"]) == 0

@@ -284,16 +284,16 @@ def test_a_clip_on_another_floor_stands_as_high_above_it(  # type: ignore[no-unt
 ) -> None:
     """The model reads the pelvis's height above y = 0: a walk on a floor 10 cm up came out 11 cm lower
     than its own pelvis, its toes dragging, and one 20 cm down walked in the air. On its own floor it now
-    stands as the same walk does on the model's, within the floors taken for the same (1.6 cm), its feet
-    on that floor, and its style's style and its timing alike."""
+    stands as the same walk does on the model's, its feet on that floor, and its timing alike (moved only
+    to the edge of the floors taken for the same, 1.6 cm, its feet sank 1 cm or floated 1.5)."""
     from elastyle.core.ground import ground_level, raised
 
     on_floor = transfer(content, style_clip, model=model).motion
     moved = transfer(raised(content, floor_cm), style_clip, model=model).motion
     pelvis = content.skeleton.pelvis
     lift = moved.positions()[:, pelvis, 1].mean() - on_floor.positions()[:, pelvis, 1].mean()
-    assert abs(lift - floor_cm) <= 1.7, lift
-    assert abs(ground_level(moved) - floor_cm - ground_level(on_floor)) <= 1.7
+    assert abs(lift - floor_cm) <= 0.3, lift
+    assert abs(ground_level(moved) - floor_cm - ground_level(on_floor)) <= 0.3
     assert abs(moved.num_frames - on_floor.num_frames) <= 1
     at_strength_0 = transfer(raised(content, floor_cm), style_clip, model=model, strength=0.0).motion
     np.testing.assert_array_equal(at_strength_0.translations, raised(content, floor_cm).translations)

@@ -50,6 +50,7 @@ from elastyle.steps.action import (
     walks_backwards,
     walks_sideways,
 )
+from elastyle.steps.arguments import arms_treated_apart, check_clip_type, check_part_styles, second_schedule
 from elastyle.steps.cleanup import lift_to_ground, plant_feet
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.contacts import held_footing
@@ -72,6 +73,7 @@ StyleInput = Motion | Sequence[Motion] | StyleLibrary
 # with residual decoding the foot clean-up acts in full from this strength on, and in proportion below it
 CLEAN_FULL_STRENGTH = 0.25
 SHORT_PATCH_S = 0.5  # patches shorter than this (seconds) get a warning that the output jitters
+PIN_FULL_KEEP = 0.2  # legs keeping the content's action are pinned again in full from this share on
 LEGS_KEPT_NOTE = 0.5  # a note says so where the legs keep their own action over this share of the output
 log = logging.getLogger(__name__)
 
@@ -117,17 +119,9 @@ def transfer(
     where something else than a clip is given.
     """
     config = TransferConfig.of(config, **options)
-    if second_style is None and second_weight is not None and np.any(_as_schedule(second_weight).values):
-        raise ConfigError("second_weight is the share of second_style, and no second_style is given")
-    _check_clip_type(content, "content")
-    _check_part_styles(part_styles, config.kept_parts)
-    if second_style is not None and second_weight is None:
-        raise ConfigError(
-            "second_weight: second_style is given without its share; give it (0 to 1) or keyframes "
-            "('SECONDS:SHARE,...') for a transition",
-            "second_weight",
-        )
-    second_weight = 0.0 if second_weight is None else second_weight
+    check_clip_type(content, "content")
+    check_part_styles(part_styles, config.kept_parts)
+    change = second_schedule(second_style, second_weight)  # the second style's share over content time
     check_finite_clip(content, content_name)
     if model is None:  # a prepared library's own model, unless another is given
         inputs = (style, second_style, *(part_styles or {}).values())
@@ -168,7 +162,6 @@ def transfer(
             "the output jitters (a walk at 0.2 s: 2.2 times the content's jerk, 1.5 at the default 1 s)"
         ), once=("patch_s", config.patch_s))  # fmt: skip
     if second_style is not None:
-        change = _as_schedule(second_weight)
         if change.times_s[0] >= content.duration_s and change.values[0] == 0:
             _say(notes, (
                 f"note: {content_name}: the change to the second style starts at {change.times_s[0]:g} s, after "
@@ -178,7 +171,7 @@ def transfer(
             as_library(model, second_style, second_style_names, config.mirror_style, config.reverse_style)
         )
     kept = part_joints(content.skeleton, config.kept_parts, content_name)  # (K,) joints kept as performed
-    if _arms_treated_apart(config.kept_parts, part_styles) and sides_guessed(content.skeleton):
+    if arms_treated_apart(config.kept_parts, part_styles) and sides_guessed(content.skeleton):
         _say(notes, (
             f"warning: {content_name}: no joint names say left or right and its rest pose does not stand, so "
             "the arm its file lists first is taken for the left one (left-arm and right-arm may be swapped)"
@@ -234,7 +227,7 @@ def transfer(
     strength = config.strength_schedule.at(grid_s)
     shares = [np.ones_like(grid)]
     if second_style is not None:
-        mix = _as_schedule(second_weight).at(grid_s)
+        mix = change.at(grid_s)
         shares = [1 - mix, mix]
     content_on_grid = interpolate_rows(content_latents, grid)  # (G, Z)
     latents, log_rate = mix_tracks(content_on_grid, strength, tracks, shares)
@@ -311,9 +304,12 @@ def transfer(
         # statistics alone colour the content (the fallback, the statistics methods) its legs step as the
         # content's do, so its contacts hold too and its feet's clearance of the ground
         on_statistics = fallback_weights(tracks, shares, grid, content_time, positions) > 0.5  # (N,)
-        also, foot_floor = held_footing(content_at, on_statistics) if np.any(on_statistics) else (None, None)
+        held = held_footing(content_at, on_statistics) if np.any(on_statistics) else None
+        also, floor, ceiling = held if held is not None else (None, None, None)
         motion = blend_by_strength(
-            motion, plant_feet(motion, root_share, also, foot_floor, lowest_ground, root_applied), clean_share
+            motion,
+            plant_feet(motion, root_share, also, floor, lowest_ground, root_applied, ceiling),
+            clean_share,
         )
     if np.any(keep > 0):
         reference = content_at if base_at is None else base_at
@@ -343,19 +339,22 @@ def transfer(
             # feet's clearance of the ground: the statistics change how the legs move, not when the feet
             # land nor whether a swinging foot skims the floor
             kept_legs = np.max(keep[:, legs], axis=1) > 0.5  # (N,)
-            also, foot_floor = held_footing(content_at, kept_legs)  # (N, F), (N, F, 2)
+            also, floor, ceiling = held_footing(content_at, kept_legs)  # (N, F), (N, F, 2) twice
             if coloured_at is not None:  # coloured legs: the whole clean-up again
                 motion = blend_by_strength(
                     motion,
-                    plant_feet(motion, root_share, also, foot_floor, lowest_ground, root_applied),
+                    plant_feet(motion, root_share, also, floor, lowest_ground, root_applied, ceiling),
                     clean_share,
                 )
             else:
                 # legs that keep the content's action (a turn matched against straight windows) mix two
                 # gaits, whose stance feet slide: pinned again as far as they keep it, the root left where
                 # the clean-up put it (moving it again would shift the whole path), and kept above the ground
-                pinned = plant_feet(motion, 0.0, also, foot_floor, lowest_ground)
-                motion = blend_by_strength(motion, pinned, legs_keep * clean_share)  # the strength once
+                pinned = plant_feet(motion, 0.0, also, floor, lowest_ground, foot_ceiling=ceiling)
+                # in full from a small share on: a blend of two gaits slides whatever its share (a turning
+                # walk's legs at 0.09 of its own turn slid a planted foot 13 cm)
+                pin_share = np.clip(legs_keep / PIN_FULL_KEEP, 0.0, 1.0)
+                motion = blend_by_strength(motion, pinned, pin_share * clean_share)  # the strength once
                 motion = blend_by_strength(
                     motion, lift_to_ground(motion, lowest_ground), (keep > 0) * clean_share[:, None]
                 )
@@ -425,59 +424,6 @@ def short_content_note(content_name: str, duration_s: float, patch_s: float) -> 
     )
 
 
-def _arms_treated_apart(kept_parts: Sequence[str], part_styles: Mapping[str, StyleInput] | None) -> bool:
-    """Whether --keep-part and --style-part treat the left and the right arm differently (naming one arm,
-    or each with another style), so which arm is the left one matters."""
-
-    def treatment(arm: str) -> str | None:
-        if arm in kept_parts:
-            return "kept"
-        return next((names for names in part_styles or {} if arm in parse_parts(names, "part_styles")), None)
-
-    return treatment("left-arm") != treatment("right-arm")
-
-
-def _check_clip_type(value: object, role: str) -> None:
-    """A TypeError that says what to do when a path or other object is given where a clip belongs."""
-    if isinstance(value, tuple) and value and isinstance(value[0], Motion):
-        raise TypeError(
-            f"the {role} must be a Motion, got a tuple of a Motion and more (read_bvh's (motion, layout)?): "
-            "pass its motion"
-        )
-    if not isinstance(value, Motion):
-        raise TypeError(
-            f"the {role} must be a Motion, got {type(value).__name__} {value!r:.80}: read a file first with "
-            "elastyle.read_bvh(path), which returns (motion, layout)"
-        )
-
-
-def _check_part_styles(part_styles: object, kept: tuple[str, ...]) -> None:
-    """A TypeError where `part_styles` is no mapping of part names to styles, a ConfigError where a part is
-    both kept and styled by another library (the command line's rule)."""
-    if part_styles is None:
-        return
-    if not isinstance(part_styles, Mapping):
-        raise TypeError(
-            f"part_styles must map body part names to styles, e.g. {{'arms': clip}}, got "
-            f"{type(part_styles).__name__} {part_styles!r:.60}"
-        )
-    for names, style in part_styles.items():
-        if not isinstance(names, str):
-            raise TypeError(
-                f"part_styles: a key must name body parts ('arms', 'legs,spine'), got {names!r:.40}"
-            )
-        if style is None:
-            raise TypeError(
-                f"part_styles[{names!r}]: give a clip, clips or a prepared StyleLibrary, got None"
-            )
-    both = sorted({p for names in part_styles for p in parse_parts(names, "part_styles")} & set(kept))
-    if both:
-        raise ConfigError(
-            f"part_styles: {', '.join(both)} both kept (keep_part) and given another style; give one",
-            "part_styles",
-        )
-
-
 _SAID_ONCE: set[object] = set()  # the keys of notes printed once per process
 
 
@@ -495,9 +441,3 @@ def _check_finite(motion: Motion, step: str, content_name: str) -> None:
     """A `ResultError` naming the step when a result holds NaN or infinite values: nothing is written."""
     if not motion.is_finite():
         raise ResultError(f"{content_name}: the {step} produced NaN or infinite values; nothing written")
-
-
-def _as_schedule(value: float | str | Schedule) -> Schedule:
-    if isinstance(value, Schedule):
-        return value
-    return Schedule.parse(value if isinstance(value, str) else str(float(value)), "second_weight")

@@ -229,8 +229,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     # the small products here the fast way (a pooled library's 64 x 64 eigendecomposition took 28 to 56 ms
     # on two threads of a loaded 2-core machine, 0.5 on one); training sets its own threads (--threads)
     limit = nullcontext() if args.command == "train" else threadpool_limits(limits=1, user_api="blas")
-    if threading.current_thread() is threading.main_thread():  # a kill ends it as Ctrl-C does
-        signal.signal(signal.SIGTERM, _interrupted)
+    # a kill ends a command as Ctrl-C does (training handles both itself: it stops with a checkpoint)
+    previous = None
+    if args.command != "train" and threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _interrupted)
     try:
         with limit:
             return int(args.run(args) or 0)
@@ -265,6 +267,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 1
+    finally:
+        if previous is not None:  # the caller's own handler back (main() may run inside a program)
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

@@ -152,7 +152,13 @@ def run_local(job: Job, contents: list[str], targets: list[Path], jobs: int | No
         ProcessPoolExecutor(workers, mp_context=context, initializer=_worker_start, initargs=(job,)) as pool,
     ):
         futures = {pool.submit(_worker_transfer, task): task for task in zip(contents, targets)}
-        return _write_all(job, as_completed(futures), futures, lambda future: future.result())
+        try:
+            return _write_all(job, as_completed(futures), futures, lambda future: future.result())
+        except KeyboardInterrupt:  # the clips not begun are dropped, not transferred and thrown away ...
+            pool.shutdown(wait=False, cancel_futures=True)
+            for worker in multiprocessing.active_children():  # ... and those under way end now (workers
+                worker.terminate()  # write nothing: the outputs are this process's to write)
+            raise
 
 
 def require_dask() -> None:

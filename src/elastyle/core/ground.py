@@ -44,11 +44,11 @@ def has_feet(motion: Motion) -> bool:
 
 def floor_gap(motion: Motion, ground: float, positions: FloatArray | None = None) -> float:
     """How far (file units) the clip must be raised to stand on a floor whose toes' ground level is `ground`:
-    the difference of the ground levels less `SAME_FLOOR_OF_LEG` of the leg either way (0 within it, so a
-    foot's own way of standing is kept). positions: `ground_level`."""
+    the difference of the ground levels, or 0 within `SAME_FLOOR_OF_LEG` of the leg either way (a foot's
+    own way of standing kept). positions: `ground_level`."""
     difference = ground - ground_level(motion, positions)
     tolerance = SAME_FLOOR_OF_LEG * leg_length(motion.skeleton, find_limbs(motion.skeleton))
-    return float(np.sign(difference) * max(0.0, abs(difference) - tolerance))
+    return float(difference) if abs(difference) > tolerance else 0.0
 
 
 def raised(motion: Motion, height: float) -> Motion:

@@ -85,7 +85,7 @@ class StyleModel:
     def floor_lift(self, motion: Motion, positions: FloatArray | None = None) -> float:
         """How far (model units) to raise a clip at the model's size (`at_model_size`) so that it stands on
         the floor of the model's takes: their toes' ground level (`ground`) less the clip's (positions
-        (T, J, 3) of its frames, when known), within a tolerance (`core.ground.floor_gap`). The model reads
+        (T, J, 3) of its frames, when known), unless within a tolerance (`core.ground.floor_gap`). The model reads
         the pelvis's height above y = 0, so a clip on another floor would take the style's height above
         that floor (a walk on a floor 10 cm up came out crouched 11 cm lower, its toes dragging). 0 where
         the model records no ground or the clip has no toes."""

@@ -14,7 +14,7 @@ from elastyle.core.ground import ground_level
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import lengths
 from elastyle.core.smoothing import pad_edges, smooth
-from elastyle.steps.contacts import checked_contacts, detect_contacts, mask_runs, pivots
+from elastyle.steps.contacts import checked_contacts, contact_points, detect_contacts, mask_runs, pivots
 from elastyle.steps.leg_ik import is_below, leg_ik
 from elastyle.steps.root_follow import SMOOTH_SIGMA_OF_WIDTH, carried_by_pelvis, root_shift, shift_pelvis
 from elastyle.types import BoolArray, FloatArray, IntArray
@@ -36,9 +36,12 @@ def plant_feet(
     foot_floor: FloatArray | None = None,
     lowest_ground: float | None = None,
     root_applied: FloatArray | None = None,
+    foot_ceiling: FloatArray | None = None,
 ) -> Motion:
     """The whole clean-up (see `_plant_feet`), a toe-less foot read at its End Site (`core.foot_tips`)."""
-    extended = _plant_feet(with_foot_tips(motion), root_share, also, foot_floor, lowest_ground, root_applied)
+    extended = _plant_feet(
+        with_foot_tips(motion), root_share, also, foot_floor, lowest_ground, root_applied, foot_ceiling
+    )
     return on_own_joints(extended, motion.skeleton)
 
 
@@ -49,6 +52,7 @@ def _plant_feet(
     foot_floor: FloatArray | None = None,
     lowest_ground: float | None = None,
     root_applied: FloatArray | None = None,
+    foot_ceiling: FloatArray | None = None,
 ) -> Motion:
     """The whole clean-up: contacts found, the root moved by `root_share` (or per frame (T,)) of the stance feet's drift
     (`steps.root_follow.adjust_root_speed`, skipped at 0), then the feet pinned (`clean_feet`). One forward kinematics pass
@@ -56,7 +60,8 @@ def _plant_feet(
     from elsewhere, added to those found; foot_floor: (T, F, 2) the lowest height of each foot's toe and
     ankle (`clean_feet`): legs that step as another clip does take its contacts and its feet's clearance
     of the ground (`steps.contacts.held_footing`); lowest_ground: `clean_feet`; root_applied: (T,) how far
-    each frame takes the root's move (`steps.root_follow.root_shift`), all of it when None."""
+    each frame takes the root's move (`steps.root_follow.root_shift`), all of it when None; foot_ceiling:
+    `clean_feet`."""
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
         return _clean_feet(motion)
@@ -67,7 +72,12 @@ def _plant_feet(
         contacts = contacts | checked_contacts(also, motion, limbs)
     if np.all(np.asarray(root_share) <= 0):
         return _clean_feet(
-            motion, contacts, world=(world_rotations, positions), foot_floor=foot_floor, ground=ground
+            motion,
+            contacts,
+            world=(world_rotations, positions),
+            foot_floor=foot_floor,
+            ground=ground,
+            foot_ceiling=foot_ceiling,
         )
     shift = root_shift(
         motion, contacts, (world_rotations, positions), root_share, applied=root_applied
@@ -78,7 +88,12 @@ def _plant_feet(
     positions = positions.copy()
     positions[:, carried_by_pelvis(skeleton, limbs)] += shift[:, None]
     return _clean_feet(
-        moved, contacts, world=(world_rotations, positions), foot_floor=foot_floor, ground=ground
+        moved,
+        contacts,
+        world=(world_rotations, positions),
+        foot_floor=foot_floor,
+        ground=ground,
+        foot_ceiling=foot_ceiling,
     )
 
 
@@ -114,6 +129,7 @@ def _clean_feet(
     world: tuple[FloatArray, FloatArray] | None = None,
     foot_floor: FloatArray | None = None,
     ground: float | None = None,
+    foot_ceiling: FloatArray | None = None,
 ) -> Motion:
     """Pin each planted foot in place with two-joint IK; a new Motion (same skeleton, fps and frames).
 
@@ -133,6 +149,9 @@ def _clean_feet(
     frame's own need (no easing raises a foot that stands). ground: the toes' ground level (file units),
     the clip's own `ground_level` when None (`clean_feet`: not below the floor the output walks on); above
     the clip's own, contacts and pivots are read from it too (`steps.contacts.point_grounds`).
+    foot_ceiling: (T, F, 2) the highest each foot's toe and ankle may stand (file units), +inf where free
+    (`steps.contacts.held_footing`: a held contact's own heights): where both are above it the foot is
+    lowered by the smaller excess, eased over `FLOOR_EASE_S`, before its hold is read.
     """
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
@@ -147,9 +166,19 @@ def _clean_feet(
     ground = ground_level(motion, positions) if ground is None else ground
     ramp_frames = blend_s * motion.fps
     bridge_frames = max(BRIDGE_GAP_S * motion.fps, 2 * ramp_frames)
+    # 0. a foot over its ceiling (a held stance risen under the style's statistics) lowered, so it is held
+    lowered = np.zeros((motion.num_frames, len(limbs.toes)))  # (T, F)
+    held_at = positions
+    if foot_ceiling is not None:
+        joints = contact_points(limbs)  # (F, 2)
+        over = positions[:, joints, 1] - _checked_floor(foot_ceiling, motion, limbs)  # (T, F, 2)
+        lowered = smooth(np.maximum(0.0, np.min(over, axis=-1)), FLOOR_EASE_S * motion.fps)
+        held_at = positions.copy()
+        held_at[:, joints, 1] -= lowered[..., None]
     # 1. ankle targets: the pinned contact point's correction moves the whole foot, then lift to the ground
-    points, weights = pivots(positions, limbs, leg, ground)  # (T, F, 2, 3), (T, F, 2)
+    points, weights = pivots(held_at, limbs, leg, ground)  # (T, F, 2, 3), (T, F, 2)
     targets = positions[:, limbs.ankles].copy()  # (T, F, 3)
+    targets[..., 1] -= lowered
     for foot in range(len(limbs.toes)):
         targets[:, foot] += _pin_corrections(
             points[:, foot], weights[:, foot], contacts[:, foot], ramp_frames, bridge_frames

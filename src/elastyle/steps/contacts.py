@@ -7,6 +7,8 @@ height), so metres, centimetres and inches behave alike.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from elastyle.core.body import Limbs, find_limbs, leg_length
@@ -176,10 +178,23 @@ def checked_contacts(contacts: BoolArray, motion: Motion, limbs: Limbs) -> BoolA
     return contacts
 
 
-def held_footing(reference: Motion, where: BoolArray) -> tuple[BoolArray, FloatArray]:
+class Footing(NamedTuple):
+    """What legs that keep another clip's stepping hold from it (`held_footing`), per frame (T) and foot
+    (F): its contacts (T, F); floor (T, F, 2), the lowest height (file units) of each foot's toe and ankle,
+    -inf where free; ceiling (T, F, 2), their highest, the reference's own heights during its contacts and
+    +inf elsewhere."""
+
+    contacts: BoolArray
+    floor: FloatArray
+    ceiling: FloatArray
+
+
+def held_footing(reference: Motion, where: BoolArray) -> Footing:
     """What legs that keep another clip's stepping hold from it, at its frames `where` (T,): its contacts
-    (T, F), and a floor under each foot (T, F, 2) for `clean_feet`, its toe's and ankle's lowest heights
-    (file units), -inf outside `where`.
+    (T, F), a floor under each foot (T, F, 2) for `clean_feet`, its toe's and ankle's lowest heights (file
+    units), and during its contacts a ceiling over them, their heights there (a stance foot held under the
+    style's statistics otherwise rose 3 to 7 cm mid-stance, and its hold, which fades as a foot rises,
+    let it slide).
 
     A foot's clearance is the lower of its toe's and its ankle's heights above their ground levels
     (`point_grounds`, as the contacts and `pivots` read them). The floor lets each foot come no closer to the ground than the
@@ -192,11 +207,13 @@ def held_footing(reference: Motion, where: BoolArray) -> tuple[BoolArray, FloatA
     reference = with_foot_tips(reference)  # a toe-less foot's End Site as its toe
     limbs = find_limbs(reference.skeleton)
     if len(limbs.toes) == 0:  # no feet to hold
-        return np.zeros((reference.num_frames, 0), dtype=bool), np.zeros((reference.num_frames, 0, 2))
+        empty = np.zeros((reference.num_frames, 0, 2))
+        return Footing(np.zeros((reference.num_frames, 0), dtype=bool), empty, empty)
     positions = reference.positions(limbs.feet)
     contacts = detect_contacts(reference, positions) & where[:, None]
     heights = positions[:, contact_points(limbs), 1]  # (T, F, 2) toe, ankle
     grounds = point_grounds(heights)  # (1, 1, 2)
     clearance = np.min(heights - grounds, axis=-1, keepdims=True)  # (T, F, 1)
     floor = grounds + np.minimum(clearance, EXIT_HEIGHT_OF_LEG * leg_length(reference.skeleton, limbs))
-    return contacts, np.where(where[:, None, None], floor, -np.inf)
+    ceiling = np.where(contacts[..., None], heights, np.inf)
+    return Footing(contacts, np.where(where[:, None, None], floor, -np.inf), ceiling)

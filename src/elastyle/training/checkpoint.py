@@ -49,24 +49,31 @@ def recorded_config(state: dict[str, Any]) -> TrainConfig | None:
 
 
 class StopOnInterrupt:
-    """Ctrl-C (SIGINT) asks training to stop after the step under way (`asked`), so its checkpoint holds
-    whole steps; a second Ctrl-C interrupts at once. In the main thread only (elsewhere: nothing changes);
-    `release` restores the handler it replaced."""
+    """Ctrl-C (SIGINT) or a kill (SIGTERM) asks training to stop after the step under way (`asked`), so its
+    checkpoint holds whole steps; a second one interrupts at once. In the main thread only (elsewhere:
+    nothing changes); `release` restores the handlers it replaced."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
     def __init__(self) -> None:
         self.asked = False
-        self._previous: Any = None
+        self._previous: dict[int, Any] = {}
         if threading.current_thread() is threading.main_thread():
-            self._previous = signal.signal(signal.SIGINT, self._ask)
+            self._previous = {number: signal.signal(number, self._ask) for number in self.SIGNALS}
 
     def _ask(self, signum: int, frame: Any) -> None:
         self.asked = True
-        signal.signal(signal.SIGINT, signal.default_int_handler)  # a second Ctrl-C stops at once
+        for number in self.SIGNALS:  # a second one stops at once
+            signal.signal(number, _interrupt_now)
 
     def release(self) -> None:
-        if self._previous is not None:
-            signal.signal(signal.SIGINT, self._previous)
-            self._previous = None
+        for number, previous in self._previous.items():
+            signal.signal(number, previous)
+        self._previous = {}
+
+
+def _interrupt_now(signum: int, frame: Any) -> None:
+    raise KeyboardInterrupt
 
 
 def save_checkpoint(
