@@ -126,6 +126,23 @@ def test_real_clips_render_side_by_side_to_gif(short_clips: list[tuple[Motion, s
         render_clips(motions, labels, out, progress=False)
 
 
+def test_a_clip_on_another_floor_is_drawn_as_on_its_own(
+    short_clips: list[tuple[Motion, str]], tmp_path: Path
+) -> None:
+    """Each panel is drawn about its clip's own ground: a rig whose origin is at its pelvis (its floor 89 cm
+    below y = 0) was drawn half out of its panel."""
+    from elastyle.core.ground import raised
+
+    motion, label = short_clips[0]
+    frames = []
+    for name, clip in (("own.gif", motion), ("low.gif", raised(motion, -89.0))):
+        render_clips([clip], [label], tmp_path / name, progress=False)
+        gif = Image.open(tmp_path / name)
+        gif.seek(gif.n_frames - 1)
+        frames.append(np.asarray(gif.convert("RGB"), dtype=np.float64))
+    assert np.abs(frames[0] - frames[1]).max() < 1e-9
+
+
 def test_real_clips_render_to_mp4(short_clips: list[tuple[Motion, str]], tmp_path: Path) -> None:
     imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg", reason="MP4 output needs imageio-ffmpeg")
     motions, labels = [m for m, _ in short_clips], [label for _, label in short_clips]

@@ -54,7 +54,12 @@ def _read_clips(specs: list[str], units: str | None) -> tuple[list[Any], list[st
     from elastyle.io.dataset import read_clip
 
     motions = [in_units(read_clip(spec)[0], units) for spec in specs]
-    return motions, [Path(spec).name for spec in specs]
+    names = [Path(spec).name for spec in specs]
+    # a file name given twice (the same take before and after, from two folders) labelled with its folder
+    return motions, [
+        f"{Path(spec).parent.name}/{name}" if names.count(name) > 1 else name
+        for spec, name in zip(specs, names)
+    ]
 
 
 def run_render(args: argparse.Namespace) -> int:

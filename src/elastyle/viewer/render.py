@@ -221,8 +221,10 @@ def render_clips(
     def draw(frame: int) -> Any:
         """The frame as a Pillow RGB image."""
         for index, (grid, path_line, lines, pairs, path) in enumerate(panels):
-            centre = path[frame] * np.array([1.0, 0.0, 1.0])  # follow the pelvis horizontally
-            grid.set_segments(_grid_segments(path[frame], grounds[index], spacing, 2.5 * height))
+            # follow the pelvis horizontally, each clip's own ground at the panel's floor (a clip whose floor
+            # lies 89 cm below y = 0, as a rig whose origin is at its pelvis has it, was drawn out of its panel)
+            centre = path[frame]
+            grid.set_segments(_grid_segments(centre, 0.0, spacing, 2.5 * height))
             traced = project(path[: frame + 1] - centre)  # (frame + 1, 2)
             path_line.set_data(traced[:, 0], traced[:, 1])
             lines.set_segments(project(positions[index][frame] - centre)[pairs])  # (B, 2, 2)
