@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import signal
 import sys
 import threading
 import time
@@ -108,6 +109,7 @@ PARENT_POLL_S = 1.0  # how often a batch worker checks that the command that sta
 
 
 def _worker_start(job: Job) -> None:
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the command's handler: a worker ended ends at once
     _WORKER_JOB[:] = [job]
     logging.getLogger("elastyle").setLevel(logging.WARNING)
     parent = os.getppid()
