@@ -81,6 +81,12 @@ def moving_sum(values: FloatArray, width: int) -> FloatArray:
     return (totals[width:] - totals[:-width]).reshape(values.shape)
 
 
+def smoothstep(values: FloatArray) -> FloatArray:
+    """Values clipped to [0, 1] and eased: 3 x^2 - 2 x^3, flat at both ends (any shape)."""
+    x = np.clip(values, 0.0, 1.0)
+    return x * x * (3 - 2 * x)
+
+
 def frame_steps(values: FloatArray) -> FloatArray:
     """Per-frame change (T, ...) of (T, ...) values by central differences (one-sided at the ends); zero
     for a single frame. Times the frame rate, a velocity."""

@@ -70,25 +70,17 @@ def _plant_feet(
     contacts = detect_contacts(motion, positions, ground)
     if also is not None:
         contacts = contacts | checked_contacts(also, motion, limbs)
-    if np.all(np.asarray(root_share) <= 0):
-        return _clean_feet(
-            motion,
-            contacts,
-            world=(world_rotations, positions),
-            foot_floor=foot_floor,
-            ground=ground,
-            foot_ceiling=foot_ceiling,
+    if np.any(np.asarray(root_share) > 0):
+        shift = root_shift(
+            motion, contacts, (world_rotations, positions), root_share, applied=root_applied
+        )  # (T, 3) world
+        motion = Motion(
+            skeleton, motion.rotations.copy(), shift_pelvis(motion, world_rotations, shift), motion.fps
         )
-    shift = root_shift(
-        motion, contacts, (world_rotations, positions), root_share, applied=root_applied
-    )  # (T, 3) world
-    moved = Motion(
-        skeleton, motion.rotations.copy(), shift_pelvis(motion, world_rotations, shift), motion.fps
-    )
-    positions = positions.copy()
-    positions[:, carried_by_pelvis(skeleton, limbs)] += shift[:, None]
+        positions = positions.copy()
+        positions[:, carried_by_pelvis(skeleton, limbs)] += shift[:, None]
     return _clean_feet(
-        moved,
+        motion,
         contacts,
         world=(world_rotations, positions),
         foot_floor=foot_floor,

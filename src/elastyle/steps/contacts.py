@@ -16,7 +16,7 @@ from elastyle.core.foot_tips import with_foot_tips
 from elastyle.core.ground import GROUND_PERCENTILE, PERCENTILE_METHOD
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import lengths
-from elastyle.core.smoothing import frame_steps
+from elastyle.core.smoothing import frame_steps, smoothstep
 from elastyle.types import BoolArray, FloatArray, IntArray
 
 TOE, HEEL = 0, 1  # a foot's two contact points, last axis of point contacts: the toe joint, the ankle joint
@@ -158,16 +158,11 @@ def pivots(
     """
     points = positions[:, contact_points(limbs)]  # (T, F, 2, 3)
     heights = points[..., 1] - point_grounds(points[..., 1], ground)  # (T, F, 2)
-    toe_weight = _smoothstep(1.0 + (heights[..., HEEL] - heights[..., TOE]) / (ENTER_HEIGHT_OF_LEG * leg))
+    toe_weight = smoothstep(1.0 + (heights[..., HEEL] - heights[..., TOE]) / (ENTER_HEIGHT_OF_LEG * leg))
     weights = np.stack([toe_weight, 1 - toe_weight], axis=-1)  # (T, F, 2), sums to 1
     pivot_height = np.sum(weights * heights, axis=-1)  # (T, F)
     low, high = 0.5 * ENTER_HEIGHT_OF_LEG * leg, EXIT_HEIGHT_OF_LEG * leg
-    return points, weights * _smoothstep((high - pivot_height) / (high - low))[..., None]
-
-
-def _smoothstep(x: FloatArray) -> FloatArray:
-    x = np.clip(x, 0.0, 1.0)
-    return x * x * (3 - 2 * x)
+    return points, weights * smoothstep((high - pivot_height) / (high - low))[..., None]
 
 
 def checked_contacts(contacts: BoolArray, motion: Motion, limbs: Limbs) -> BoolArray:

@@ -84,6 +84,14 @@ def fallback_weights(
     weighted by their shares; 1 throughout for the statistics methods), read at the output frames as
     `keep_weights` reads. There the content's latents are coloured in place, so its legs step as it does."""
     on_grid = np.sum([share * track.fallback for track, share in zip(tracks, shares)], axis=0)  # (G,)
+    return _at_output(on_grid, grid, content_time, positions)
+
+
+def _at_output(
+    on_grid: FloatArray, grid: FloatArray, content_time: FloatArray, positions: FloatArray
+) -> FloatArray:
+    """(N,) values on the content-time grid (G,) read at the output frames (positions (N,) on the model-rate
+    output timeline whose content times are content_time (T_out,))."""
     model_rate = on_output_frames(on_grid, grid, content_time)  # (T_out,)
     return np.interp(positions, np.arange(len(model_rate)), model_rate)
 
@@ -107,9 +115,8 @@ def _per_joint(
                 values = getattr(track, field)
                 if name in values:
                     on_grid += share * values[name]
-            model_rate = on_output_frames(on_grid, grid, content_time)  # (T_out,)
             joints = joint_set(set(joints.tolist()) & set(styled_joints.tolist()))
-            weights[:, joints] = np.interp(positions, np.arange(len(model_rate)), model_rate)[:, None]
+            weights[:, joints] = _at_output(on_grid, grid, content_time, positions)[:, None]
     return weights
 
 

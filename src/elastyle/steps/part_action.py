@@ -15,7 +15,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from elastyle.core.smoothing import smooth
+from elastyle.core.smoothing import smooth, smoothstep
 from elastyle.steps.action import TURNING_COLUMN, sustained_turning
 from elastyle.steps.arms import arm_mismatch, back_and_forth, steady_rhythm
 from elastyle.steps.config import TransferConfig
@@ -158,16 +158,14 @@ def end_share(grid: FloatArray, span: float) -> FloatArray:
     """(G,) 1 at the grid's (G,) first and last times, easing (smoothstep) to 0 at `span` content frames
     from them."""
     distance = np.minimum(grid - grid[0], grid[-1] - grid) if len(grid) else grid
-    x = np.clip(1 - distance / max(span, 1e-9), 0.0, 1.0)
-    return x * x * (3 - 2 * x)
+    return smoothstep(1 - distance / max(span, 1e-9))
 
 
 def eased(ramp: FloatArray, ease_steps: float, held: bool = False) -> FloatArray:
     """(G,) a ramp (G,) clipped to [0, 1] through a smoothstep, then eased in and out in time (Gaussian,
     sigma `ease_steps` grid steps), held at its running maximum over `ease_steps` either side first if
     asked."""
-    x = np.clip(ramp, 0.0, 1.0)
-    x = x * x * (3 - 2 * x)
+    x = smoothstep(ramp)
     if held and len(x):
         reach = int(round(ease_steps))
         x = sliding_window_view(np.pad(x, reach, mode="edge"), 2 * reach + 1).max(axis=-1)

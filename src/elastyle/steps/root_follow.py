@@ -9,7 +9,7 @@ from elastyle.core.body import Limbs, find_limbs, leg_length
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import lengths
 from elastyle.core.skeleton import Skeleton
-from elastyle.core.smoothing import frame_steps, smooth
+from elastyle.core.smoothing import frame_steps, smooth, smoothstep
 from elastyle.steps.contacts import checked_contacts, pivots
 from elastyle.steps.leg_ik import is_below
 from elastyle.types import BoolArray, FloatArray
@@ -98,8 +98,7 @@ def _travelling(pelvis: FloatArray, leg: float, fps: float) -> FloatArray:
     speed = lengths(frame_steps(pelvis[:, [0, 2]])) * fps / leg  # (T,) leg lengths per second
     speed = smooth(speed, TRAVEL_SMOOTH_S * fps)
     low, high = TRAVEL_LEGS_S
-    x = np.clip((speed - low) / (high - low), 0.0, 1.0)
-    return x * x * (3 - 2 * x)
+    return smoothstep((speed - low) / (high - low))
 
 
 def carried_by_pelvis(skeleton: Skeleton, limbs: Limbs) -> list[int]:
