@@ -120,6 +120,21 @@ def test_a_short_gesture_takes_a_much_slower_styles_pace(model, dataset_clips: l
     assert held_up_s(outputs["tempo"]) > 1.4 > 1.0 > held_up_s(outputs["content"])
 
 
+def test_a_wave_given_the_other_hands_wave_waves_its_own_hand(model, dataset_clips: list[ClipRef]) -> None:  # type: ignore[no-untyped-def]
+    # the style's mirrored windows wave the content's hand; mirrored on axes its raised arm chose, they had both
+    # arms half raised and neither waving (right hand 20 cm above the pelvis, left 40)
+    content = clip_named(dataset_clips, "dataset-2_wave-right-hand_normal_010").read()[0]
+    style = clip_named(dataset_clips, "dataset-2_wave-left-hand_youthful_005").read()[0]
+    out = transfer(content, style, model=model).motion
+    names, positions = out.skeleton.names, out.positions()
+    middle = slice(out.num_frames // 4, 3 * out.num_frames // 4)
+    above = {side: positions[middle, names.index(f"Hand_{side}"), 1] - positions[middle, out.skeleton.pelvis, 1]
+             for side in "LR"}  # fmt: skip
+    assert np.median(above["R"]) > 60 and np.median(above["L"]) < 0, {
+        k: np.median(v) for k, v in above.items()
+    }
+
+
 def test_the_output_walks_the_contents_path_to_its_ends(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
     # on the content's clock, the root on the content's path: the pelvis starts and ends where the content's does
     out = transfer(content, style_clip, model=model, timing="content", root_follows_legs=0.0).motion

@@ -2,9 +2,10 @@
 
 For a joint j with partner m(j), the mirrored world rotation is M W_m(j) A_j, where M = diag(-1, 1, 1)
 reflects the world and A_j is an improper signed permutation in j's local frame that maps j's child
-offsets onto its partner's. Rigs differ in how the right side's local axes relate to the left's, so
-among the A_j that fit the offsets we prefer the parent's, then the one under which the clip's
-heading-relative mean pose is most symmetric. A_m(j) = A_j^T, so mirroring twice is the identity.
+offsets onto its partner's. Rigs differ in how the right side's local axes relate to the left's, and a
+limb's offsets leave a twist about its bone open, so among the A_j that fit the offsets the mean pose of the
+clip's most symmetric frames chooses (a one-handed wave's hands-down start and end, not its raised arm),
+the parent's A breaking ties. A_m(j) = A_j^T, so mirroring twice is the identity.
 """
 
 from __future__ import annotations
@@ -20,6 +21,10 @@ from elastyle.core.skeleton import Skeleton, check_mirrorable
 from elastyle.types import FloatArray, IntArray
 
 _REFLECT_X = np.diag([-1.0, 1.0, 1.0])
+# the reflections that map a joint's offsets onto its partner's within this (per vector, relative to its length)
+# all fit; only among them do the parent's reflection and the mean pose choose
+OFFSET_TOLERANCE = 0.2
+SYMMETRIC_SHARE = 0.1  # the share of a clip's frames, its most symmetric, whose mean pose chooses among them
 
 
 def _improper_signed_permutations() -> FloatArray:
@@ -50,10 +55,11 @@ def _child_vectors(skeleton: Skeleton, joint: int, partner: IntArray) -> tuple[F
 def local_reflections(motion: Motion, partner: IntArray) -> FloatArray:
     """The per-joint reflections A (J, 3, 3) described in the module docstring."""
     skeleton = motion.skeleton
-    world_rotations, _ = motion.world()
+    world_rotations, world_positions = motion.world()
     yaw = heading_yaw(world_rotations[:, skeleton.pelvis], pelvis_forward_local(skeleton))
-    relative = np.einsum("tji,tkjl->tkil", yaw_matrices(yaw), world_rotations)  # (T, J, 3, 3) heading frame
-    mean_pose = relative.mean(axis=0)  # (J, 3, 3)
+    turns = yaw_matrices(yaw)  # (T, 3, 3)
+    relative = np.einsum("tji,tkjl->tkil", turns, world_rotations)  # (T, J, 3, 3) heading frame
+    mean_pose = relative[_symmetric_frames(motion, partner, turns, world_positions)].mean(axis=0)  # (J, 3, 3)
     scale = max(float(np.abs(skeleton.offsets).max()), 1e-9)
     reflections = np.zeros((skeleton.num_joints, 3, 3))
     for joint in range(skeleton.num_joints):
@@ -65,18 +71,42 @@ def local_reflections(motion: Motion, partner: IntArray) -> FloatArray:
         if other == joint:  # a centre joint's reflection must be its own inverse
             candidates = candidates[np.all(np.abs(candidates @ candidates - np.eye(3)) < 1e-9, axis=(1, 2))]
         ours, theirs = _child_vectors(skeleton, joint, partner)
-        offset_error = np.abs(np.einsum("aij,kj->aki", candidates, ours) - theirs).sum(axis=(1, 2)) / scale
+        # each vector's misfit relative to its own length, so a short bone's offsets decide as a long one's do
+        sizes = np.maximum(np.linalg.norm(ours, axis=-1), np.linalg.norm(theirs, axis=-1))  # (K,)
+        sizes = np.maximum(sizes, 1e-6 * scale)
+        misfit = (
+            np.linalg.norm(np.einsum("aij,kj->aki", candidates, ours) - theirs, axis=-1) / sizes
+        )  # (24, K)
+        offset_error = misfit.sum(axis=1)
         pose_error = np.linalg.norm(
             mean_pose[joint] - _REFLECT_X @ mean_pose[other] @ candidates, axis=(1, 2)
         ) + np.linalg.norm(
             mean_pose[other] - _REFLECT_X @ mean_pose[joint] @ candidates.transpose(0, 2, 1), axis=(1, 2)
         )
-        # Offsets decide first (a misfit costs more than any pose difference); then the parent's reflection
-        # is preferred (leaf joints have no offsets to tell), and the clip's mean pose breaks what is left.
+        # Offsets decide first: only those that fit them are chosen from (before, a misfit was weighed against
+        # the pose, relative to the longest bone, so a short bone's misfit lost to a raised arm's asymmetry);
+        # then the pose of the most symmetric frames, and the parent's reflection (leaf joints have no offsets).
         parent = skeleton.parents[joint]
         parent_change = 0.0 if parent < 0 else np.linalg.norm(candidates - reflections[parent], axis=(1, 2))
-        reflections[joint] = candidates[np.argmin(10.0 * offset_error + pose_error + parent_change)]
+        fitting = offset_error <= offset_error.min() + OFFSET_TOLERANCE * max(len(ours), 1)
+        cost = np.where(fitting, pose_error + parent_change, np.inf)
+        reflections[joint] = candidates[np.argmin(cost)]
     return reflections
+
+
+def _symmetric_frames(
+    motion: Motion, partner: IntArray, turns: FloatArray, world_positions: FloatArray
+) -> IntArray:
+    """The frames (K,) where the body stands most nearly mirror-symmetric, read from joint positions (which
+    a mirror maps without any choice of axes): the `SYMMETRIC_SHARE` of frames whose joints lie nearest
+    their partners' reflections, relative to the pelvis in the heading frame (turns (T, 3, 3), world
+    positions (T, J, 3)). A one-handed wave's most symmetric frames are its hands-down start and end, so
+    its raised arm does not choose the axes of both arms' reflections."""
+    pelvis = motion.skeleton.pelvis
+    local = np.einsum("tji,tkj->tki", turns, world_positions - world_positions[:, pelvis : pelvis + 1])
+    asymmetry = np.linalg.norm(local - local[:, partner] @ _REFLECT_X, axis=-1).mean(axis=1)  # (T,)
+    count = max(1, int(np.ceil(SYMMETRIC_SHARE * motion.num_frames)))
+    return np.argsort(asymmetry, kind="stable")[:count]
 
 
 def mirror(motion: Motion, reflections: FloatArray | None = None) -> Motion:
