@@ -78,7 +78,8 @@ def test_a_resized_clips_figures_are_at_the_models_size_whether_its_unit_is_stat
 
 
 @pytest.mark.parametrize(
-    "factor, unit_cm", [(1.0, 1.0), (0.75, 1.0), (1 / 2.54, 2.54), (1.2 / 2.54, 2.54), (0.01, 100.0)]
+    "factor, unit_cm",
+    [(1.0, 1.0), (0.75, 1.0), (1 / 2.54, 2.54), (1.2 / 2.54, 2.54), (0.01, 100.0), (10.0, 0.1), (8.0, 0.1)],
 )
 def test_the_unit_is_guessed_from_the_bodys_height_not_its_rest_pose(
     content: Motion, factor: float, unit_cm: float
@@ -88,6 +89,23 @@ def test_the_unit_is_guessed_from_the_bodys_height_not_its_rest_pose(
     # the dataset's rest pose lies along X, 99.8 cm tall: a smaller body in centimetres was read as inches
     skeleton = content.scaled(factor).skeleton
     assert centimetres_per_unit(skeleton) == unit_cm, factor
+
+
+def test_the_pelvis_offset_a_file_does_not_use_does_not_size_it(
+    model, content: Motion, style_clip: Motion
+) -> None:  # type: ignore[no-untyped-def]
+    # a pelvis with position channels is placed by them, so its OFFSET line (0 0 0 in most exporters' files)
+    # moves nothing; the body's size read from the rest pose's extent counted it, so a zero offset read the
+    # clip 7.6 times too large and the output collapsed to its knees
+    from dataclasses import replace
+
+    clip = content.slice(0, 90)
+    offsets = clip.skeleton.offsets.copy()
+    offsets[clip.skeleton.pelvis] = 0.0
+    zeroed = Motion(replace(clip.skeleton, offsets=offsets), clip.rotations, clip.translations, clip.fps)
+    np.testing.assert_allclose(zeroed.positions(), clip.positions(), atol=1e-9)  # the same motion
+    ours, theirs = (transfer(c, style_clip, model=model).motion.positions() for c in (clip, zeroed))
+    np.testing.assert_allclose(theirs, ours, atol=1e-6)
 
 
 def test_a_guessed_unit_other_than_centimetres_is_said(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]

@@ -78,5 +78,6 @@ def add_units_flag(
     parser.add_argument(
         "--units", choices=sorted(UNITS),
         help="the BVH clips' length unit (default: guessed from the body's height, read from its bone lengths: "
-        f"metres below 5 units tall, inches from 40 to 90, else centimetres; .glb clips are metres); {effect}",
+        "metres below 5 units tall, inches from 40 to 90, millimetres from 500, else centimetres; .glb clips "
+        f"are metres); {effect}",
     )  # fmt: skip

@@ -64,15 +64,18 @@ UNITS = {"cm": 1.0, "m": 100.0, "mm": 0.1, "in": 2.54}  # centimetres per unit, 
 
 def centimetres_per_unit(skeleton: Skeleton) -> float:
     """The file's length unit in centimetres: as the user stated it (`Skeleton.unit_cm`), else guessed from
-    the body's height (`standing_height`): metres below 5 units tall, inches from 40 to 90, else centimetres."""
+    the body's height (`standing_height`): metres below 5 units tall, inches from 40 to 90, millimetres from
+    500 (a body 5 m tall in centimetres), else centimetres."""
     if skeleton.unit_cm is not None:
         return skeleton.unit_cm
     height = standing_height(skeleton)
     if height < 5:
-        return 100.0
+        return UNITS["m"]
     if 40 < height < 90:
-        return 2.54
-    return 1.0
+        return UNITS["in"]
+    if height >= 500:
+        return UNITS["mm"]
+    return UNITS["cm"]
 
 
 def standing_height(skeleton: Skeleton) -> float:
@@ -107,7 +110,10 @@ SIZE_TOLERANCE = 0.02
 def size_factor(clip: Skeleton, reference: Skeleton) -> float:
     """The scale that brings a clip's skeleton to the reference's length unit (`centimetres_per_unit`: as
     stated with `--units`, else guessed from the body's height) and, where its rest height then lies more than
-    `SIZE_TOLERANCE` from the reference's, to the reference's height (1 for a flat skeleton).
+    `SIZE_TOLERANCE` from the reference's, to the reference's height (1 for a flat skeleton). Heights are
+    `standing_height`s, from bone lengths: the rest pose's extent also counted the pelvis's offset from the
+    root, which a pelvis with position channels does not use (a file whose Hips OFFSET reads 0 0 0, as most
+    exporters write it, was read 7.6 times too large and came out collapsed).
 
     A model reads clips at its own skeleton's size and trains on clips brought to its first clip's: some
     features are lengths (the pelvis's height and sway), so read raw, held-out takes 10 % shorter or taller
@@ -115,7 +121,7 @@ def size_factor(clip: Skeleton, reference: Skeleton) -> float:
     metres is unreadable.
     """
     unit = centimetres_per_unit(clip) / centimetres_per_unit(reference)
-    height, reference_height = clip.height() * unit, reference.height()
+    height, reference_height = standing_height(clip) * unit, standing_height(reference)
     if height <= 0 or reference_height <= 0 or abs(height / reference_height - 1) <= SIZE_TOLERANCE:
         return unit
     return unit * reference_height / height
