@@ -145,6 +145,36 @@ def test_legs_that_keep_the_walk_clear_the_floor_as_the_walk_does(model, clips: 
     assert np.abs(out.rotations[:, legs] - walk.rotations[:, legs]).max() > 0.05  # still coloured
 
 
+def test_a_run_given_a_walks_statistics_keeps_its_pelvis_height(dataset_clips: list[ClipRef]) -> None:
+    """Legs that keep the run take the walk's statistics; pinning their feet again had lowered the pelvis to
+    reach them, 6 cm below both clips' (82.2 cm against 88.2 and 89.0)."""
+    run, walk = (
+        clip_named(dataset_clips, f"dataset-2_{n}").read()[0] for n in ("run_normal_005", "walk_elderly_010")
+    )
+    out = transfer(run, walk).motion
+    height = {
+        name: np.median(m.positions()[:, m.skeleton.pelvis, 1]) for name, m in (("run", run), ("out", out))
+    }
+    assert abs(height["out"] - height["run"]) < 1.5, height
+
+
+def test_standing_legs_take_none_of_a_stepping_styles_statistics(dataset_clips: list[ClipRef]) -> None:
+    """A raise given a run's style keeps its standing legs: the run's statistics had bent the knees to 146
+    degrees and stood the body on tiptoe, heels 3 cm up."""
+    raise_up, run = (
+        clip_named(dataset_clips, f"dataset-2_{n}").read()[0]
+        for n in ("raise-up-both-hands_normal_010", "run_youthful_010")
+    )
+    out = transfer(raise_up, run).motion
+    limbs = find_limbs(out.skeleton)
+    heels = {
+        name: np.median(m.positions()[:, limbs.ankles, 1]) for name, m in (("raise", raise_up), ("out", out))
+    }
+    assert abs(heels["out"] - heels["raise"]) < 1.0, heels
+    legs = body_parts(out.skeleton)["legs"]
+    assert np.abs(out.rotations[:, legs] - raise_up.rotations[: out.num_frames, legs]).max() < 0.15
+
+
 def test_a_walk_given_a_walks_style_swaps_everywhere(model, clips: dict[str, Motion]) -> None:  # type: ignore[no-untyped-def]
     result = transfer(clips["walk_normal_005"], clips["walk_masculine_010"], model=model)
     patches = result.explain["styles"][0]["patches"]

@@ -337,20 +337,31 @@ def transfer(
         if config.cleanup and (coloured_at is not None or np.any(keep[:, automatic_legs] > 0)):
             # where the legs keep the content's stepping, the content's own contacts hold as well, and its
             # feet's clearance of the ground: the statistics change how the legs move, not when the feet
-            # land nor whether a swinging foot skims the floor
+            # land nor whether a swinging foot skims the floor; nor the pelvis's height (lowered to reach
+            # the pins, a run given a walk's statistics crouched 6 cm below both clips)
             kept_legs = np.max(keep[:, legs], axis=1) > 0.5  # (N,)
             also, floor, ceiling = held_footing(content_at, kept_legs)  # (N, F), (N, F, 2) twice
             if coloured_at is not None:  # coloured legs: the whole clean-up again
                 motion = blend_by_strength(
                     motion,
-                    plant_feet(motion, root_share, also, floor, lowest_ground, root_applied, ceiling),
+                    plant_feet(
+                        motion, root_share, also, floor, lowest_ground, root_applied, ceiling, 1 - legs_keep
+                    ),
                     clean_share,
                 )
             else:
                 # legs that keep the content's action (a turn matched against straight windows) mix two
                 # gaits, whose stance feet slide: pinned again as far as they keep it, the root left where
                 # the clean-up put it (moving it again would shift the whole path), and kept above the ground
-                pinned = plant_feet(motion, 0.0, also, floor, lowest_ground, foot_ceiling=ceiling)
+                pinned = plant_feet(
+                    motion,
+                    0.0,
+                    also,
+                    floor,
+                    lowest_ground,
+                    foot_ceiling=ceiling,
+                    lowering_share=1 - legs_keep,
+                )
                 # in full from a small share on: a blend of two gaits slides whatever its share (a turning
                 # walk's legs at 0.09 of its own turn slid a planted foot 13 cm)
                 pin_share = np.clip(legs_keep / PIN_FULL_KEEP, 0.0, 1.0)

@@ -100,9 +100,16 @@ def still_frames(actions: FloatArray, skeleton: Skeleton, fps: float) -> BoolArr
     a stop or an idle, which has no pace of its own to take a style's."""
     num_hands = len(find_limbs(skeleton).hands)
     hand_speeds = actions[:, 3 + 3 * num_hands : 3 + 4 * num_hands]  # (T, H) legs/s
-    feet = actions[:, 3 + 4 * num_hands :]  # (T, F) heights, legs
+    legs = part_channels(skeleton)["legs"]
+    return standing_legs(actions, legs, fps) & ~np.any(hand_speeds > STILL_LEGS_S, axis=1)
+
+
+def standing_legs(actions: FloatArray, leg_columns: IntArray, fps: float) -> BoolArray:
+    """(T,) the frames of `action_channels` (T, A) where the legs stand: the pelvis travels, every foot rises
+    or falls slower than `STILL_LEGS_S` and the body turns slower than `STILL_TURNING`; leg_columns: the
+    legs' columns (`part_channels`: travel, turning, then the feet's heights)."""
+    feet = actions[:, leg_columns[3:]]  # (T, F) heights, legs
     moving = (lengths(actions[:, :2]) > STILL_LEGS_S) | (np.abs(actions[:, TURNING_COLUMN]) > STILL_TURNING)
-    moving |= np.any(hand_speeds > STILL_LEGS_S, axis=1)
     moving |= np.any(np.abs(frame_steps(feet)) * fps > STILL_LEGS_S, axis=1)
     return ~moving
 

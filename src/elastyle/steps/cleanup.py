@@ -37,11 +37,13 @@ def plant_feet(
     lowest_ground: float | None = None,
     root_applied: FloatArray | None = None,
     foot_ceiling: FloatArray | None = None,
+    lowering_share: FloatArray | None = None,
 ) -> Motion:
     """The whole clean-up (see `_plant_feet`), a toe-less foot read at its End Site (`core.foot_tips`)."""
     extended = _plant_feet(
-        with_foot_tips(motion), root_share, also, foot_floor, lowest_ground, root_applied, foot_ceiling
-    )
+        with_foot_tips(motion), root_share, also, foot_floor, lowest_ground, root_applied, foot_ceiling,
+        lowering_share,
+    )  # fmt: skip
     return on_own_joints(extended, motion.skeleton)
 
 
@@ -53,6 +55,7 @@ def _plant_feet(
     lowest_ground: float | None = None,
     root_applied: FloatArray | None = None,
     foot_ceiling: FloatArray | None = None,
+    lowering_share: FloatArray | None = None,
 ) -> Motion:
     """The whole clean-up: contacts found, the root moved by `root_share` (or per frame (T,)) of the stance feet's drift
     (`steps.root_follow.adjust_root_speed`, skipped at 0), then the feet pinned (`clean_feet`). One forward kinematics pass
@@ -61,7 +64,7 @@ def _plant_feet(
     ankle (`clean_feet`): legs that step as another clip does take its contacts and its feet's clearance
     of the ground (`steps.contacts.held_footing`); lowest_ground: `clean_feet`; root_applied: (T,) how far
     each frame takes the root's move (`steps.root_follow.root_shift`), all of it when None; foot_ceiling:
-    `clean_feet`."""
+    `clean_feet`; lowering_share: (T,) `clean_feet`."""
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
         return _clean_feet(motion)
@@ -86,6 +89,7 @@ def _plant_feet(
         foot_floor=foot_floor,
         ground=ground,
         foot_ceiling=foot_ceiling,
+        lowering_share=lowering_share,
     )
 
 
@@ -122,6 +126,7 @@ def _clean_feet(
     foot_floor: FloatArray | None = None,
     ground: float | None = None,
     foot_ceiling: FloatArray | None = None,
+    lowering_share: FloatArray | None = None,
 ) -> Motion:
     """Pin each planted foot in place with two-joint IK; a new Motion (same skeleton, fps and frames).
 
@@ -144,6 +149,8 @@ def _clean_feet(
     foot_ceiling: (T, F, 2) the highest each foot's toe and ankle may stand (file units), +inf where free
     (`steps.contacts.held_footing`: a held contact's own heights): where both are above it the foot is
     lowered by the smaller excess, eased over `FLOOR_EASE_S`, before its hold is read.
+    lowering_share: (T,) 0 to 1, how much of `MAX_LOWERING_OF_LEG` each frame allows (all of it when None):
+    legs that keep the content's action keep its pelvis height too.
     """
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
@@ -188,8 +195,9 @@ def _clean_feet(
     # the upper leg must hang below the leg's root: a two-bone leg off the pelvis has no knee to bend
     legs = np.array([is_below(skeleton, int(chain[0]), int(hip)) for chain, hip in zip(chains, limbs.hips)])
     rotations, translations = motion.rotations.copy(), motion.translations.copy()
+    allowed = MAX_LOWERING_OF_LEG * leg * (1.0 if lowering_share is None else np.clip(lowering_share, 0, 1))
     lowering = np.minimum(
-        _pelvis_lowering(positions, chains[legs], targets[:, legs], ramp_frames), MAX_LOWERING_OF_LEG * leg
+        _pelvis_lowering(positions, chains[legs], targets[:, legs], ramp_frames), allowed
     )  # (T,)
     if np.any(lowering > 0):
         shift = np.zeros((motion.num_frames, 3))

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from elastyle.core.smoothing import smooth, smoothstep
-from elastyle.steps.action import TURNING_COLUMN, sustained_turning
+from elastyle.steps.action import TURNING_COLUMN, standing_legs, sustained_turning
 from elastyle.steps.arms import arm_mismatch, back_and_forth, steady_rhythm
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.library import StyleLibrary
@@ -93,7 +93,14 @@ def part_keeps(
             keep_share(on_grid(*turning), config.legs_turning_above, ease),
         )
         keep = {"legs": share, "spine": share}
-        other_action["legs"] = keep_share(on_grid(*gait), config.keep_action_above, ease)
+        # legs that stand take none of a stepping style's statistics: its legs' mean is a stride's bent knees
+        # and lifted heels, not a manner (a raise given a run's statistics stood on tiptoe, knees bent)
+        standing = np.interp(
+            grid, np.arange(len(content_actions)), standing_legs(content_actions, leg_columns, fps)
+        )
+        other_action["legs"] = keep_share(on_grid(*gait), config.keep_action_above, ease) * (
+            1 - np.clip(smooth(standing, ease), 0.0, 1.0)
+        )
     for part, columns in part_columns.items():
         if part == "legs":
             continue
