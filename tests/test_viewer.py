@@ -21,7 +21,7 @@ import pytest
 from elastyle.errors import ElastyleError
 from elastyle.io.bvh_read import read_bvh
 from elastyle.io.dataset import ClipRef
-from elastyle.viewer.app import build_payload, make_server, read_explain, server_url
+from elastyle.viewer.app import allowed_hosts, build_payload, make_server, read_explain, server_url
 from tests.conftest import clip_named
 
 CHROMIUM = Path("/usr/bin/chromium")
@@ -130,7 +130,8 @@ def test_explain_file_is_checked_and_sorted(tmp_path: Path) -> None:
     explain = read_explain(write_explain(tmp_path / "explain.json", "style.bvh"))
     starts = [p["output_start_s"] for p in explain["styles"][0]["patches"]]
     assert starts == [0.0, 1.0] and explain["source"] == "explain.json"
-    assert "content_start_s" not in explain["styles"][0]["patches"][1]
+    assert explain["styles"][0]["patches"][1]["content_start_s"] == 1.0
+    assert explain["styles"][0]["patches"][0]["content_start_s"] is None  # an older file's patch
     decided, older = explain["styles"][0]["patches"][1], explain["styles"][0]["patches"][0]
     assert decided["mode"] == "blend" and decided["statistics_share"] == 0.25
     assert decided["parts"] == {
@@ -279,6 +280,77 @@ def test_payload_carries_foot_contacts(dataset_clips: list[ClipRef]) -> None:
     assert np.all((0.3 < contacts.mean(axis=0)) & (contacts.mean(axis=0) < 0.9))  # planted part of a cycle
 
 
+def test_explain_carries_part_styles_a_transitions_share_and_backward_windows(tmp_path: Path) -> None:
+    """What the page's explain panel shows beside the style's own patches (before, a part's style clip, a
+    second style's share and a window played backwards were not sent to it)."""
+    path = write_explain(tmp_path / "explain.json", "style.bvh")
+    record = json.loads(path.read_text())
+    part = dict(record["styles"][0], patches=[dict(p, style_clip="/x/arms.bvh", style_backwards=True)
+                                              for p in record["styles"][0]["patches"]])  # fmt: skip
+    record |= {"part_styles": [dict(part, parts=["left-arm", "right-arm"])], "model_fps": 30.0,
+               "second_weight": {"times_s": [3.0, 5.0], "values": [0.0, 1.0]}, "output": "/x/out.bvh"}  # fmt: skip
+    path.write_text(json.dumps(record))
+    explain = read_explain(path)
+    [arms] = explain["part_styles"]
+    assert arms["parts"] == ["left-arm", "right-arm"] and {p["style_clip"] for p in arms["patches"]} == {
+        "arms.bvh"
+    }
+    assert all(p["style_backwards"] for p in arms["patches"])
+    assert not any(p["style_backwards"] for p in explain["styles"][0]["patches"])  # older files: forwards
+    assert explain["second_weight"] == {"times_s": [3.0, 5.0], "values": [0.0, 1.0]}
+    assert explain["output"] == "out.bvh" and explain["output_path"] == "/x/out.bvh"
+    record["second_weight"] = {"times_s": [1.0]}
+    path.write_text(json.dumps(record))
+    with pytest.raises(ElastyleError, match=r"explain\.json: 'second_weight' lacks"):
+        read_explain(path)
+
+
+def test_the_page_on_port_80_is_served_to_a_browser_and_asks_for_no_icon(
+    three_channel_bvh: Path, serve: Callable[[dict[str, Any]], str]
+) -> None:
+    # a browser sends "Host: 127.0.0.1" to port 80, without the port: the page was refused (403)
+    assert "127.0.0.1" in allowed_hosts(80) and "127.0.0.1" not in allowed_hosts(8765)
+    assert "127.0.0.1:8765" in allowed_hosts(8765) and "example.org" not in allowed_hosts(80)
+    url = serve(build_payload([read_bvh(three_channel_bvh)[0]], ["tiny.bvh"]))
+    assert fetch(url + "favicon.ico")[0] == 204  # every page load asked for it: a 404 in the console
+
+
+def _view_stderr(*arguments: str) -> tuple[str, list[str]]:
+    """Run `elastyle view ... --no-browser --port 0` until it serves: its stderr and the clips' labels."""
+    command = [sys.executable, "-c", VIEW_HARNESS, "view", *arguments, "--no-browser", "--port", "0"]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert process.stdout is not None and process.stderr is not None
+        ready, _, _ = select.select([process.stdout], [], [], 30)
+        assert ready, "the view command printed nothing within 30 s"
+        match = re.search(r"http://127\.0\.0\.1:\d+/", process.stdout.readline())
+        assert match
+        labels = [clip["label"] for clip in json.loads(fetch(match.group(0) + "clips.json")[2])["clips"]]
+    finally:
+        process.terminate()
+        process.wait(timeout=10)
+    return process.stderr.read(), labels
+
+
+def test_view_takes_folders_and_globs_and_tells_files_of_one_name_apart(
+    three_channel_bvh: Path, tmp_path: Path
+) -> None:
+    for folder in ("v1", "v2"):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "out.bvh").write_text(three_channel_bvh.read_text())
+    explain = write_explain(tmp_path / "explain.json", "style.bvh")
+    record = json.loads(explain.read_text())
+    explain.write_text(json.dumps(record | {"output": str(tmp_path / "v2" / "out.bvh")}))
+    # a folder and a quoted glob, as transfer takes them (both were "not a file")
+    stderr, labels = _view_stderr(
+        str(tmp_path / "v1"), str(tmp_path / "v*" / "out.bvh"), "--explain", str(explain)
+    )
+    assert labels == ["v1/out.bvh", "v1/out.bvh", "v2/out.bvh"]
+    assert "written for" not in stderr  # v2/out.bvh is shown (its name alike v1's had it warned of)
+    stderr, _ = _view_stderr(str(tmp_path / "v1" / "out.bvh"), "--explain", str(explain))
+    assert f"was written for {tmp_path / 'v2' / 'out.bvh'}, which is not among the clips shown" in stderr
+
+
 def test_explain_shows_style_clips_by_name_only(tmp_path: Path) -> None:
     explain = read_explain(write_explain(tmp_path / "explain.json", "/home/someone/private/style.bvh"))
     assert {p["style_clip"] for p in explain["styles"][0]["patches"]} == {"style.bvh"}
@@ -402,4 +474,7 @@ def test_view_warns_of_an_explain_file_written_for_another_output(
         process.terminate()
         process.wait(timeout=10)
     stderr = process.stderr.read()
-    assert "explain.json was written for styled_walk.bvh, which is not among the clips shown" in stderr
+    assert (
+        "explain.json was written for /some/folder/styled_walk.bvh, which is not among the clips shown"
+        in stderr
+    )

@@ -57,7 +57,9 @@ def transfer_one(job: Job, content_spec: str, target: Path) -> None:
     output, explain = _transfer(job, content_spec, target)
     _write(job, target, output)
     if job.explain:
-        explain = dict(explain, content=content_spec, output=str(target), model=job.model_file or "shipped")
+        # the output's absolute path: `view` tells whether the clips it shows include it
+        output_path = os.path.abspath(target)
+        explain = dict(explain, content=content_spec, output=output_path, model=job.model_file or "shipped")
         write_text_atomic(
             job.explain, json.dumps(explain, indent=1), force=job.force, inputs=(*job.inputs, str(target))
         )

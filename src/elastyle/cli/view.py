@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +23,7 @@ def add_view_commands(commands: Any) -> None:
         help="watch clips side by side in a local web viewer (127.0.0.1 only)",
         description="Serve a page on 127.0.0.1 that plays the clips side by side (or overlaid) in sync.",
     )
-    view.add_argument("clips", nargs="+", help="BVH files (or paths inside a zip archive)")
+    view.add_argument("clips", nargs="+", help="BVH or .glb files, folders, globs or zip archives")
     view.add_argument(
         "--port",
         type=int,
@@ -40,7 +41,7 @@ def add_view_commands(commands: Any) -> None:
         help="render clips side by side to a GIF or MP4 (needs elastyle[render])",
         description="Draw the clips side by side, one panel each, into an animated GIF or an MP4 video.",
     )
-    render.add_argument("clips", nargs="+", help="BVH files (or paths inside a zip archive)")
+    render.add_argument("clips", nargs="+", help="BVH or .glb files, folders, globs or zip archives")
     render.add_argument("-o", "--output", required=True, help="output file: .gif or .mp4")
     render.add_argument("--fps", type=float, help="frame rate (default: the clips', at most 30 for GIF)")
     render.add_argument("--force", action="store_true", help="overwrite an existing output file")
@@ -49,17 +50,21 @@ def add_view_commands(commands: Any) -> None:
     render.set_defaults(run=run_render)
 
 
-def _read_clips(specs: list[str], units: str | None) -> tuple[list[Any], list[str]]:
+def _read_clips(specs: list[str], units: str | None) -> tuple[list[Any], list[str], list[str]]:
+    """The clips the files, folders, globs or archives name (as `transfer` reads them), their labels, and
+    their paths."""
     from elastyle.core.body import in_units
-    from elastyle.io.dataset import read_clip
+    from elastyle.io.dataset import find_clips
 
-    motions = [in_units(read_clip(spec)[0], units) for spec in specs]
-    names = [Path(spec).name for spec in specs]
+    clips = find_clips(specs)
+    motions = [in_units(clip.read()[0], units) for clip in clips]
+    names = [Path(clip.member or clip.name).name for clip in clips]
     # a file name given twice (the same take before and after, from two folders) labelled with its folder
-    return motions, [
-        f"{Path(spec).parent.name}/{name}" if names.count(name) > 1 else name
-        for spec, name in zip(specs, names)
+    labels = [
+        f"{Path(clip.name).parent.name}/{name}" if names.count(name) > 1 else name
+        for clip, name in zip(clips, names)
     ]
+    return motions, labels, [clip.name for clip in clips]
 
 
 def run_render(args: argparse.Namespace) -> int:
@@ -69,13 +74,18 @@ def run_render(args: argparse.Namespace) -> int:
     check_output_path(args.output, force=args.force, inputs=tuple(args.clips))
     if args.fps is not None and not args.fps > 0:
         raise UsageError(f"--fps must be positive, got {args.fps}")
-    motions, labels = _read_clips(args.clips, args.units)
+    motions, labels, _ = _read_clips(args.clips, args.units)
     num_frames = render_clips(
         motions, labels, args.output, fps=args.fps, force=args.force, progress=not args.no_progress
     )
     clips = f"{len(motions)} clip{'' if len(motions) == 1 else 's'}"
     log.info("wrote %s (%d frames, %s)", args.output, num_frames, clips)
     return 0
+
+
+def _same_file(first: str, second: str) -> bool:
+    """Whether two paths (as given, relative to the current folder) name the same file."""
+    return os.path.abspath(first) == os.path.abspath(second)
 
 
 def run_view(args: argparse.Namespace) -> int:
@@ -86,12 +96,14 @@ def run_view(args: argparse.Namespace) -> int:
     if args.port is not None and not 0 <= args.port <= 65535:
         raise UsageError(f"--port must lie between 0 and 65535, got {args.port}")
     explain = read_explain(args.explain) if args.explain else None
-    motions, labels = _read_clips(args.clips, args.units)
-    if explain is not None and explain["output"] and explain["output"] not in labels:
-        log.warning(
-            "warning: %s was written for %s, which is not among the clips shown: its patches are drawn on "
-            "their timeline all the same", args.explain, explain["output"],
-        )  # fmt: skip
+    motions, labels, paths = _read_clips(args.clips, args.units)
+    if explain is not None:
+        written_for = explain.pop("output_path")  # the page gets the file's name only
+        if written_for and not any(_same_file(written_for, path) for path in paths):
+            log.warning(
+                "warning: %s was written for %s, which is not among the clips shown: its patches are drawn on "
+                "their timeline all the same", args.explain, written_for,
+            )  # fmt: skip
     payload = build_payload(motions, labels, explain)
     if args.port is None:
         try:

@@ -40,6 +40,8 @@ _PATCH_FIELDS = (
     ("stretch", float),
     ("similarity", float),
 )
+# fields older explain files lack, with what they meant then
+_OPTIONAL_FIELDS = (("style_backwards", bool, False), ("content_start_s", float, None))
 
 
 def build_payload(
@@ -99,26 +101,61 @@ def read_explain(path: str | os.PathLike[str]) -> dict[str, Any]:
         raise ElastyleError(
             f"{path}: not an explain file (no 'styles' list; write one with transfer --explain)"
         )
-    tracks = []
-    for style in styles:
-        patches = style.get("patches") if isinstance(style, dict) else None
-        if not isinstance(patches, list):
-            raise ElastyleError(f"{path}: a style entry has no 'patches' list")
-        try:
-            rows = [
-                {key: kind(patch[key]) for key, kind in _PATCH_FIELDS} | _decision(patch) for patch in patches
-            ]
-            for row in rows:  # the page shows clips by name: no folder of the user's goes out
-                row["style_clip"] = PurePath(str(row["style_clip"])).name
-        except (KeyError, TypeError, ValueError) as error:
-            raise ElastyleError(f"{path}: a patch lacks or mangles field {error}") from None
-        tracks.append({"patches": sorted(rows, key=lambda row: row["output_start_s"])})
+    parts = record.get("part_styles") or []
+    if not isinstance(parts, list):
+        raise ElastyleError(f"{path}: 'part_styles' is not a list")
     output = record.get("output")  # the output file it was written for (older files do not say)
     return {
         "source": Path(path).name,
-        "styles": tracks,
-        "output": PurePath(str(output)).name if output else None,
+        "styles": [_track(style, path) for style in styles],
+        # the body parts another style gave their manner, each with its own track
+        "part_styles": [
+            _track(entry, path) | {"parts": [str(part) for part in entry.get("parts", [])]} for entry in parts
+        ],
+        "second_weight": _second_weight(record.get("second_weight"), path),
+        "model_fps": float(record.get("model_fps", 30.0)),
+        "output": PurePath(str(output)).name if output else None,  # what the page shows of it
+        "output_path": str(output)
+        if output
+        else None,  # as the transfer recorded it, for the caller's checks
     }
+
+
+def _track(style: Any, path: str | os.PathLike[str]) -> dict[str, Any]:
+    """One style's patches from an explain record, sorted by output time, its clips by name only."""
+    patches = style.get("patches") if isinstance(style, dict) else None
+    if not isinstance(patches, list):
+        raise ElastyleError(f"{path}: a style entry has no 'patches' list")
+    try:
+        rows = [
+            {key: kind(patch[key]) for key, kind in _PATCH_FIELDS}
+            | {
+                key: patch[key] if patch.get(key) is None else kind(patch[key])
+                for key, kind, _ in _OPTIONAL_FIELDS
+                if key in patch
+            }  # fmt: skip
+            | {key: default for key, _, default in _OPTIONAL_FIELDS if key not in patch}
+            | _decision(patch)
+            for patch in patches
+        ]
+        for row in rows:  # the page shows clips by name: no folder of the user's goes out
+            row["style_clip"] = PurePath(str(row["style_clip"])).name
+    except (KeyError, TypeError, ValueError) as error:
+        raise ElastyleError(f"{path}: a patch lacks or mangles field {error}") from None
+    return {"patches": sorted(rows, key=lambda row: row["output_start_s"])}
+
+
+def _second_weight(weight: Any, path: str | os.PathLike[str]) -> dict[str, list[float]] | None:
+    """A transition's or blend's share of the second style over content seconds, or None."""
+    if weight is None:
+        return None
+    try:
+        times, values = [float(t) for t in weight["times_s"]], [float(v) for v in weight["values"]]
+    except (KeyError, TypeError, ValueError):
+        raise ElastyleError(f"{path}: 'second_weight' lacks its times_s and values") from None
+    if len(times) != len(values) or not times:
+        raise ElastyleError(f"{path}: 'second_weight' has {len(times)} times and {len(values)} values")
+    return {"times_s": times, "values": values}
 
 
 def _decision(patch: dict[str, Any]) -> dict[str, Any]:
@@ -151,9 +188,8 @@ def make_server(payload: dict[str, Any], port: int = 0) -> ThreadingHTTPServer:
         timeout = IDLE_TIMEOUT_S  # a connection that sends nothing for this long is closed
 
         def do_GET(self) -> None:  # noqa: N802 (http.server's name)
-            bound = server_port(self.server)
             host = self.headers.get("Host")
-            if host is not None and host not in (f"{HOST}:{bound}", f"localhost:{bound}"):
+            if host is not None and host not in allowed_hosts(server_port(self.server)):
                 self._send(403, "text/plain", b"forbidden host\n")  # a rebound DNS name, not the user
                 return
             path = urlsplit(self.path).path
@@ -161,6 +197,8 @@ def make_server(payload: dict[str, Any], port: int = 0) -> ThreadingHTTPServer:
                 self._send(200, "text/html; charset=utf-8", page)
             elif path == "/clips.json":
                 self._send(200, "application/json", body)
+            elif path == "/favicon.ico":  # browsers ask for one on every load: none, and no error
+                self._send(204, "image/x-icon", b"")
             else:
                 self._send(404, "text/plain", b"not found\n")
 
@@ -221,6 +259,12 @@ class _BoundedServer(ThreadingHTTPServer):
 
     def handle_error(self, request: Any, client_address: Any) -> None:
         log.debug("view: connection from %s ended with an error", client_address, exc_info=True)
+
+
+def allowed_hosts(port: int) -> set[str]:
+    """The Host headers a request to this machine's viewer on `port` carries (a browser leaves out port 80)."""
+    names = {HOST, "localhost"}
+    return {f"{name}:{port}" for name in names} | (names if port == 80 else set())
 
 
 def server_port(server: Any) -> int:
