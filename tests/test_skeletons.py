@@ -66,6 +66,50 @@ def walk(dataset_clips: list[ClipRef]) -> Motion:
     return clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0]
 
 
+def test_a_standing_gesture_has_no_cadence_though_its_body_turns(dataset_clips: list[ClipRef]) -> None:
+    # its feet stand still, but as the body turns while it waves, one leads the other along the heading by 5 cm
+    # more or less: that lead's swing had read as 4 steps a second (so had an output's, which `eval` printed)
+    wave = clip_named(dataset_clips, "dataset-2_wave-left-hand_active_015").read()[0]
+    assert np.isnan(cadence_steps_s(wave))
+
+
+def _with_joint_between(motion: Motion, parent: str, child: str, name: str) -> Motion:
+    """The clip with a joint `name` inserted halfway between `parent` and its child `child`, unrotated."""
+    skeleton = motion.skeleton
+    at, below = skeleton.names.index(parent) + 1, skeleton.names.index(child)
+    order = [*range(at), -1, *range(at, skeleton.num_joints)]  # -1: the new joint
+    new_index = {old: new for new, old in enumerate(order) if old >= 0}
+    parents = [at - 1 if old < 0 else (at if old == below else new_index.get(int(skeleton.parents[old]), -1))
+               for old in order]  # fmt: skip
+    half = skeleton.offsets[below] / 2
+    offsets = np.array(
+        [half if old < 0 else (half if old == below else skeleton.offsets[old]) for old in order]
+    )
+    ends = np.array([np.full(3, np.nan) if old < 0 else skeleton.end_sites[old] for old in order])
+    names = tuple(name if old < 0 else skeleton.names[old] for old in order)
+    rotations = np.insert(motion.rotations, at, 0.0, axis=1)
+    translations = np.insert(motion.translations, at, half, axis=1)
+    translations[:, at + 1 + (below - at)] = half
+    return Motion(Skeleton(names, np.array(parents), offsets, ends), rotations, translations, motion.fps)
+
+
+def test_a_joint_between_two_of_the_models_is_a_clear_error(walk: Motion) -> None:
+    # the names are the model's, but a twist joint mid-arm: read "by the hierarchy", the twist was taken for the
+    # elbow and the elbow for the wrist, and the output bent the upper arm at the twist by 29 degrees
+    from elastyle import SkeletonMismatchError, transfer
+
+    twisted = _with_joint_between(walk.slice(0, 60), "UpperArm_L", "LowerArm_L", "UpperArmTwist_L")
+    twisted = _with_joint_between(twisted, "UpperArm_R", "LowerArm_R", "UpperArmTwist_R")  # both: it was read
+    np.testing.assert_allclose(
+        twisted.positions()[:, [twisted.skeleton.names.index(n) for n in walk.skeleton.names]],
+        walk.slice(0, 60).positions(), atol=1e-4,
+    )  # fmt: skip
+    with pytest.raises(
+        SkeletonMismatchError, match=r"UpperArmTwist_L between the model's UpperArm_L and LowerArm_L"
+    ):
+        transfer(twisted, walk)
+
+
 @pytest.mark.parametrize("scheme", list(SCHEMES))
 def test_legs_feet_and_cadence_on_any_naming(walk: Motion, scheme: str) -> None:
     other = _renamed(walk, scheme)

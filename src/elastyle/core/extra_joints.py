@@ -7,6 +7,7 @@ model's order; the output carries the others as the content performs them, at th
 lists every joint in the clip's order.
 
     model_joints_in       (J_model,) each model joint's index in the clip, or None
+    inserted_joints       a clip's joints between two of the model's (which it cannot read)
     without_extra_joints  the clip on the model's joints alone
     with_extra_joints     an output on the model's joints, back on the clip's whole skeleton
 """
@@ -35,6 +36,10 @@ def model_joints_in(model: Skeleton, clip: Skeleton) -> IntArray | None:
     by the hierarchy (`_by_hierarchy`: extra joints only below the model's end joints), for the caller to
     check as the model's skeleton under other names (`core.body.same_structure`)."""
     by_name = _by_name(model, clip)
+    if by_name is None and inserted_joints(model, clip):
+        return (
+            None  # the model's names, other joints between them: not the model's skeleton under other names
+        )
     joints = by_name if by_name is not None else _by_hierarchy(model, clip)
     if joints is None:
         return None
@@ -58,6 +63,30 @@ def _by_name(model: Skeleton, clip: Skeleton) -> IntArray | None:
         if all(index.get(int(clip.parents[joint]), -1) == parent for joint, parent in zip(joints, parents)):
             return joints
     return None
+
+
+def inserted_joints(model: Skeleton, clip: Skeleton) -> list[tuple[list[str], str, str]]:
+    """Where a clip that has every model joint under its name (or without namespaces) holds other joints
+    between a model joint and its model parent (a twist joint mid-arm, a third spine joint): for each such
+    place, the joints in between (clip names, top down), the parent's and the joint's model names. Empty for
+    a clip that lacks a model joint's name, or has none in between."""
+    for key in (str, bare_name):
+        where = {key(name): joint for joint, name in enumerate(clip.names)}
+        found = [where.get(key(name)) for name in model.names]
+        if None in found:
+            continue
+        places = []
+        for joint, parent in enumerate(model.parents):
+            if parent < 0:
+                continue
+            between, above = [], int(clip.parents[found[joint]])
+            while above >= 0 and above != found[parent]:
+                between.append(clip.names[above])
+                above = int(clip.parents[above])
+            if above >= 0 and between:
+                places.append((between[::-1], model.names[parent], model.names[joint]))
+        return places
+    return []
 
 
 def _by_hierarchy(model: Skeleton, clip: Skeleton) -> IntArray | None:

@@ -118,7 +118,14 @@ def _alternation_hz(
 
 def cadence_steps_s(motion: Motion, positions: FloatArray | None = None) -> float:
     """Steps per second: twice the dominant frequency of one foot's lead over the other; NaN for a clip
-    that does not step (the lead swings less than `MIN_STEP_SWING_CM`: standing gestures)."""
+    that does not step: the lead swings less than `MIN_STEP_SWING_CM`, or no foot moves that far over the
+    ground (a standing wave's feet, still, lead each other by 5 cm more or less as the body turns)."""
+    positions = motion.positions() if positions is None else positions
+    ankles = find_limbs(motion.skeleton).ankles
+    ground = positions[:, ankles][..., [0, 2]]  # (T, F, 2) each foot's place on the ground
+    spread = np.linalg.norm(np.subtract(*np.percentile(ground, [95, 5], axis=0)), axis=-1)  # (F,)
+    if len(ankles) and np.max(spread) * centimetres_per_unit(motion.skeleton) < MIN_STEP_SWING_CM:
+        return float("nan")
     return 2.0 * _alternation_hz(motion, positions, "ankles", MIN_STEP_SWING_CM)
 
 

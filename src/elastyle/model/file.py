@@ -20,7 +20,12 @@ from typing import Any
 import numpy as np
 
 from elastyle.core.body import at_size_of, same_rest_pose, same_structure
-from elastyle.core.extra_joints import model_joints_in, with_extra_joints, without_extra_joints
+from elastyle.core.extra_joints import (
+    inserted_joints,
+    model_joints_in,
+    with_extra_joints,
+    without_extra_joints,
+)
 from elastyle.core.ground import floor_gap, has_feet, raised
 from elastyle.core.motion import Motion
 from elastyle.core.rest_frames import AXIS_TURNS, frames_turned
@@ -217,6 +222,15 @@ class StyleModel:
             return (
                 f"note: {what}: joint names differ from the model's ({renamed[0]} for {renamed[1]}, ...), but "
                 "its hierarchy, limbs and rest pose are the model's: read joint by joint in that order"
+            )
+        inserted = inserted_joints(self.skeleton, motion.skeleton)
+        if inserted:
+            between, parent, child = inserted[0]
+            more = f" (and {len(inserted) - 1} more place(s))" if len(inserted) > 1 else ""
+            raise SkeletonMismatchError(
+                f"{what}: joint(s) {', '.join(between)} between the model's {parent} and {child}{more}: the model "
+                "reads those two as one bone, so it cannot read this skeleton; train a model on its clips with "
+                "'elastyle train CLIPS -o model.npz --recipe shipped --minutes 20' and pass it with --model"
             )
         rooted = with_added_roots(self.skeleton, motion)
         if rooted is not None:
