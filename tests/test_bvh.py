@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import random
+import re
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +12,7 @@ from scipy.spatial.transform import Rotation
 
 from elastyle import BvhError, Motion, read_bvh, write_bvh
 from elastyle.io.bvh_read import parse_bvh
-from elastyle.io.bvh_write import bvh_text
+from elastyle.io.bvh_write import bvh_bytes, bvh_text
 from tests.conftest import THREE_CHANNEL_BVH
 
 
@@ -65,6 +66,23 @@ def test_tabs_crlf_and_spaces_are_accepted() -> None:
     text = THREE_CHANNEL_BVH.replace("  ", "\t").replace("\n", "\r\n")
     motion, _ = parse_bvh(text.encode(), "crlf.bvh")
     assert motion.num_frames == 3
+
+
+def test_a_file_is_written_with_its_line_endings_encoding_frame_time_and_offsets() -> None:
+    # a Windows tool's file came back with Unix line endings, its Frame Time 0.00833333 as 0.0083333 (120.0005 fps)
+    # and its offsets at six significant digits (111.97668 as 111.977)
+    text = THREE_CHANNEL_BVH.replace("\n", "\r\n")
+    text = re.sub(r"Frame Time:\s*\S+", "Frame Time: 0.00833333", text)
+    text = re.sub(r"OFFSET\s+\S+", "OFFSET 111.97668", text, count=1)
+    motion, layout = parse_bvh(text.encode(), "windows.bvh")
+    written = bvh_text(motion, layout)
+    assert written.count("\r\n") == written.count("\n") and "\r\n" in written
+    assert "Frame Time: 0.00833333\r\n" in written and "OFFSET 111.976680 " in written
+    assert "\r" not in bvh_text(*parse_bvh(THREE_CHANNEL_BVH.encode(), "unix.bvh"))  # Unix stays Unix
+    latin = parse_bvh(THREE_CHANNEL_BVH.replace("pelvis", "H\u00fcfte").encode("latin-1"), "latin.bvh")
+    assert bvh_bytes(*latin).count("H\u00fcfte".encode("latin-1")) == 1  # not re-encoded as UTF-8
+    resampled = Motion(motion.skeleton, motion.rotations, motion.translations, 30.0)
+    assert "Frame Time: 0.0333333\r\n" in bvh_text(resampled, layout)  # another rate: its own time
 
 
 def test_existing_output_is_not_overwritten_without_force(three_channel_bvh: Path, tmp_path: Path) -> None:

@@ -29,6 +29,8 @@ class BvhLayout(NamedTuple):
         solution (the middle angle within -90 to 90 degrees: the same rotation past it is written as the
         other solution).
     angles_low: where a wrapping file's angles start, -180 or 0 degrees.
+    newline: the file's line ending, "\n" or "\r\n" (Windows tools'), which a clip written in it keeps.
+    encoding: the file's text encoding, "utf-8" or "latin-1" (a file that is not UTF-8), kept likewise.
     """
 
     channels: tuple[tuple[str, ...], ...]
@@ -37,6 +39,8 @@ class BvhLayout(NamedTuple):
     first_values: tuple[tuple[float, ...], ...] = ()
     angles_wrap: bool = False
     angles_low: float = -180.0
+    newline: str = "\n"
+    encoding: str = "utf-8"
 
     @staticmethod
     def default(skeleton: Skeleton, fps: float, moving: Sequence[int] = ()) -> BvhLayout:

@@ -74,9 +74,9 @@ def parse_bvh(data: bytes, name: str) -> tuple[Motion, BvhLayout]:
     if b"\x00" in data[:4096]:
         raise BvhError(name, "binary data, not a BVH text file")
     try:
-        text = data.decode("utf-8")
+        text, encoding = data.decode("utf-8"), "utf-8"
     except UnicodeDecodeError:
-        text = data.decode("latin-1")
+        text, encoding = data.decode("latin-1"), "latin-1"
     text = text.removeprefix("\ufeff")  # a UTF-8 byte-order mark, as some Windows tools write
     lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
     reader = _Lines(name, lines)
@@ -90,7 +90,7 @@ def parse_bvh(data: bytes, name: str) -> tuple[Motion, BvhLayout]:
     wrap, low = _angle_range(channels, motion_values)
     layout = BvhLayout(
         tuple(channels), frame_time_s, first_values=_first_values(channels, motion_values),
-        angles_wrap=wrap, angles_low=low,
+        angles_wrap=wrap, angles_low=low, newline="\r\n" if "\r\n" in text else "\n", encoding=encoding,
     )  # fmt: skip
     return motion, layout
 

@@ -15,7 +15,7 @@ from elastyle.core.up import turned_back
 from elastyle.errors import BvhError, SkeletonMismatchError, UsageError
 from elastyle.io.bvh_layout import POSITION_CHANNELS, BvhLayout, channel_columns, first_rotation_values
 from elastyle.io.euler import rotvec_to_euler
-from elastyle.io.files import write_text_atomic
+from elastyle.io.files import write_bytes_atomic
 from elastyle.types import FloatArray
 
 log = logging.getLogger(__name__)
@@ -39,9 +39,35 @@ def bvh_text(motion: Motion, layout: BvhLayout | None = None) -> str:
     out = io.StringIO()
     out.write("HIERARCHY\n")
     written = _write_joint(out, skeleton, layout, 0, 0)  # the joints in file order
-    out.write(f"MOTION\nFrames: {motion.num_frames}\nFrame Time: {1.0 / motion.fps:.7f}\n")
+    out.write(f"MOTION\nFrames: {motion.num_frames}\nFrame Time: {_frame_time(motion.fps, layout)}\n")
     out.write(_format_rows(_channel_values(motion, layout, written)))
-    return out.getvalue()
+    text = out.getvalue()
+    return text.replace("\n", "\r\n") if layout.newline == "\r\n" else text
+
+
+def _frame_time(fps: float, layout: BvhLayout) -> str:
+    """The Frame Time line's number: the layout's file's own where the clip keeps its frame rate (as the file
+    wrote it, 0.00833333 staying so), else the rate's to seven decimals (1/30 s: 0.0333333)."""
+    own = _number(layout.frame_time_s, 10)
+    # the reader takes 0.00833333 s for 120 fps (`frame_rate`): within that rounding it is the file's rate
+    if abs(layout.frame_time_s * fps - 1.0) < 1e-5 and float(own) == layout.frame_time_s:
+        return own
+    return f"{1.0 / fps:.7f}"
+
+
+def _number(value: float, decimals: int) -> str:
+    """A number as its shortest text that reads back the same, to at most `decimals` decimals, no exponent
+    and no sign on zero."""
+    return np.format_float_positional(float(value) + 0.0, precision=decimals, unique=True, trim="-")
+
+
+def bvh_bytes(motion: Motion, layout: BvhLayout | None = None) -> bytes:
+    """`bvh_text` encoded as the layout's file was (UTF-8 where that cannot hold a name, or without one)."""
+    text = bvh_text(motion, layout)
+    try:
+        return text.encode(layout.encoding if layout is not None else "utf-8")
+    except UnicodeEncodeError:
+        return text.encode("utf-8")
 
 
 def _animated_joints(motion: Motion) -> list[int]:
@@ -140,7 +166,7 @@ def write_bvh(
             "elastyle.write_clip(path, motion)"
         )
     refuse_non_finite(path, motion)
-    write_text_atomic(path, bvh_text(motion, layout_for(path, motion, layout)), force=force, inputs=inputs)
+    write_bytes_atomic(path, bvh_bytes(motion, layout_for(path, motion, layout)), force=force, inputs=inputs)
 
 
 def layout_for(path: str | os.PathLike[str], motion: Motion, layout: BvhLayout | None) -> BvhLayout | None:
@@ -204,7 +230,14 @@ def _write_joint(
 
 
 def _format_vector(vector: FloatArray) -> str:
-    return " ".join(f"{v:.6g}" for v in vector)
+    """An offset's three numbers with six decimals, as most files write them, or more where the value needs
+    them to read back the same (six significant digits had written 111.97668 as 111.977)."""
+    return " ".join(_six_decimals(v) for v in vector)
+
+
+def _six_decimals(value: float) -> str:
+    text = f"{float(value) + 0.0:.6f}"
+    return text if float(text) == value else _number(value, 8)
 
 
 def _channel_values(motion: Motion, layout: BvhLayout, written: list[int]) -> FloatArray:

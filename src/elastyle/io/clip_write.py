@@ -8,7 +8,7 @@ from pathlib import Path
 from elastyle.core.motion import Motion
 from elastyle.errors import UsageError
 from elastyle.io.bvh_layout import BvhLayout
-from elastyle.io.bvh_write import bvh_text, check_clip_argument, layout_for, refuse_non_finite
+from elastyle.io.bvh_write import bvh_bytes, check_clip_argument, layout_for, refuse_non_finite
 from elastyle.io.files import write_bytes_atomic
 
 OUTPUT_SUFFIXES = (".bvh", ".glb")
@@ -33,7 +33,7 @@ def clip_bytes(path: str | os.PathLike[str], motion: Motion, layout: BvhLayout |
         from elastyle.io.gltf_write import glb_bytes
 
         return glb_bytes(motion)
-    return bvh_text(motion, layout_for(path, motion, layout)).encode("utf-8")
+    return bvh_bytes(motion, layout_for(path, motion, layout))
 
 
 def write_clip(
