@@ -859,3 +859,27 @@ def test_training_clips_of_one_skeleton_under_two_namings_train_together(
     result = _cli("train", str(folder), "-o", str(model), "--steps", "2")
     assert result.returncode == 0, result.stderr
     assert "name their joints otherwise than" in result.stderr and model.exists()
+
+
+def test_a_bind_pose_before_the_motion_is_noted(
+    dataset_clips: list[ClipRef], caplog: pytest.LogCaptureFixture
+) -> None:
+    # many exporters write the rig's bind pose as frame 0; it was read as a frame of the motion, a 176-degree
+    # jump into the next, without a word (as a style clip it moved the chosen windows, the output 28 cm apart)
+    from elastyle.pipeline import transfer
+
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0].slice(0, 90)
+    style = clip_named(dataset_clips, "dataset-2_walk_elderly_010").read()[0]
+    posed = Motion(
+        walk.skeleton,
+        np.concatenate([np.zeros_like(walk.rotations[:1]), walk.rotations]),
+        np.concatenate([walk.translations[:1], walk.translations]),
+        walk.fps,
+    )
+    with caplog.at_level("WARNING", logger="elastyle"):
+        notes = transfer(posed, posed, content_name="posed.bvh", style_names=["posed_style.bvh"]).explain[
+            "notes"
+        ]
+    assert any("posed.bvh: its first frame is a pose apart from its motion" in note for note in notes), notes
+    assert "posed_style.bvh: its first frame is a pose apart" in caplog.text
+    assert not any("pose apart" in note for note in transfer(walk, style).explain["notes"])

@@ -35,7 +35,7 @@ import numpy as np
 
 from elastyle.core.body import centimetres_per_unit, guessed_unit_note, no_legs_note
 from elastyle.core.ground import ground_level, has_feet, raised
-from elastyle.core.motion import Motion, check_finite_clip
+from elastyle.core.motion import Motion, check_finite_clip, leading_pose_note
 from elastyle.core.parts import body_parts, joint_set, parse_parts, part_joints, sides_guessed
 from elastyle.core.resample import interpolate_rows
 from elastyle.core.threads import one_blas_thread
@@ -138,6 +138,9 @@ def transfer(
     # printed once per rig and size in a process (a batch of one rig's clips), kept in every record
     if unit_note is not None:
         _say(notes, unit_note, once=(given.skeleton.names, round(centimetres_per_unit(given.skeleton), 6)))
+    pose_note = leading_pose_note(given, content_name)
+    if pose_note is not None:
+        _say(notes, pose_note)
     legs_note = no_legs_note(content.skeleton, content_name) if config.cleanup else None
     if legs_note is not None:
         _say(notes, legs_note)

@@ -8,7 +8,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from elastyle.core.resample import interpolate_rows
-from elastyle.core.rotations import slerp_resample
+from elastyle.core.rotations import canonical_log, lengths, quat_multiply, slerp_resample, to_quat
 from elastyle.core.skeleton import Skeleton, forward_kinematics
 from elastyle.errors import BvhError
 from elastyle.types import FloatArray, IntArray
@@ -134,3 +134,28 @@ def check_finite_clip(motion: Motion, name: str) -> None:
     frame = motion.first_non_finite_frame()
     if frame is not None:
         raise BvhError(name, f"NaN or infinite values, first at frame {frame}")
+
+
+LEADING_POSE_DEG = (
+    60.0  # a first frame a joint turns this far from, far beyond the clip's own frame steps ...
+)
+LEADING_POSE_FACTOR = 4.0  # ... (this many times its largest) is a pose exported before the motion
+
+
+def leading_pose_note(motion: Motion, name: str) -> str | None:
+    """A note where a clip's first frame is a pose apart from its motion (a T-pose or bind pose that many
+    exporters write as frame 0): some joint turns over `LEADING_POSE_DEG` from it to the next frame, and
+    `LEADING_POSE_FACTOR` times as far as in any later step; None otherwise."""
+    if motion.num_frames < 3:
+        return None
+    quats = to_quat(motion.rotations)  # (T, J, 4)
+    inverse = quats[:-1] * np.array([-1.0, -1.0, -1.0, 1.0])
+    steps = np.degrees(lengths(canonical_log(quat_multiply(inverse, quats[1:])))).max(axis=1)  # (T - 1,)
+    first, later = float(steps[0]), float(steps[1:].max())
+    if first < LEADING_POSE_DEG or first < LEADING_POSE_FACTOR * later:
+        return None
+    return (
+        f"note: {name}: its first frame is a pose apart from its motion (a joint turns {first:.0f} degrees from "
+        "it to the next frame): a T-pose or bind pose exported before the motion? It is read as a "
+        "frame of the clip; trim it from the file if it is not one"
+    )

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from elastyle.core.mirror import mirror
-from elastyle.core.motion import Motion, check_finite_clip
+from elastyle.core.motion import Motion, check_finite_clip, leading_pose_note
 from elastyle.core.threads import one_blas_thread
 from elastyle.errors import ConfigError, ElastyleError, SkeletonMismatchError
 from elastyle.model.file import StyleModel, as_model
@@ -124,6 +124,9 @@ def prepare_style(
     names = list(names) if names is not None else [f"style{i}" for i in range(len(motions))]
     for name, motion in zip(names, motions):  # every clip checked before any is encoded
         check_finite_clip(motion, name)
+        note = leading_pose_note(motion, name)
+        if note is not None:
+            log.warning("%s", note)
     clips: list[tuple[str, bool, Motion]] = []
     for name, motion in zip(names, motions):
         model.check_clip(motion, name)
