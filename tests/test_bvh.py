@@ -81,6 +81,14 @@ def test_a_file_is_written_with_its_line_endings_encoding_frame_time_and_offsets
     assert "\r" not in bvh_text(*parse_bvh(THREE_CHANNEL_BVH.encode(), "unix.bvh"))  # Unix stays Unix
     latin = parse_bvh(THREE_CHANNEL_BVH.replace("pelvis", "H\u00fcfte").encode("latin-1"), "latin.bvh")
     assert bvh_bytes(*latin).count("H\u00fcfte".encode("latin-1")) == 1  # not re-encoded as UTF-8
+    assert bvh_bytes(*parse_bvh(b"\xef\xbb\xbf" + THREE_CHANNEL_BVH.encode(), "bom.bvh")).startswith(
+        b"\xef\xbb\xbfHIER"
+    )
+    for own in ("0.016667", "0.008333"):  # six decimals, read as 60 and 120 fps
+        six = parse_bvh(
+            re.sub(r"Frame Time:\s*\S+", f"Frame Time: {own}", THREE_CHANNEL_BVH).encode(), "six.bvh"
+        )
+        assert f"Frame Time: {own}\n" in bvh_text(*six)
     resampled = Motion(motion.skeleton, motion.rotations, motion.translations, 30.0)
     assert "Frame Time: 0.0333333\r\n" in bvh_text(resampled, layout)  # another rate: its own time
 

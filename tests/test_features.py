@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from elastyle import SkeletonMismatchError, mirror, read_bvh
+from elastyle import Motion, SkeletonMismatchError, mirror, read_bvh
 from elastyle.core.mirror import local_reflections
 from elastyle.core.rotations import continuous_log, from_quat, to_quat
 from elastyle.model.features import FeatureSpec
@@ -68,6 +69,14 @@ def test_a_one_handed_gesture_is_mirrored_on_the_same_axes_as_a_walk(dataset_cli
         return local_reflections(motion, motion.skeleton.mirror_pairs())
 
     walk = reflections("walk_normal_001")
+    # an End Site of zeros carrying a file's rounding does not choose a head's axes (it turned the head 90 degrees)
+    motion = clip_named(dataset_clips, "dataset-2_walk_normal_001").read()[0]
+    ends = motion.skeleton.end_sites.copy()
+    ends[motion.skeleton.names.index("Head")] = [0.0, 1e-4, 1e-4]
+    noisy = Motion(
+        replace(motion.skeleton, end_sites=ends), motion.rotations, motion.translations, motion.fps
+    )
+    np.testing.assert_array_equal(local_reflections(noisy, noisy.skeleton.mirror_pairs()), walk)
     for stem in ("wave-left-hand_youthful_005", "raise-up-left-hand_youthful_005", "wave-right-hand_normal_005",
                  "walk-turn-left_normal_025"):  # fmt: skip
         np.testing.assert_array_equal(reflections(stem), walk, err_msg=stem)

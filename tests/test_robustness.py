@@ -667,7 +667,8 @@ def test_content_paths_that_look_like_globs_and_resumed_single_outputs(
     bracketed = tmp_path / "take[1].bvh"  # a file name with glob characters is read as the file it names
     bracketed.write_bytes(walk.read_bytes())
     assert (
-        _cli("transfer", str(bracketed), "--style", str(walk), "-o", str(tmp_path / "a.bvh")).returncode == 0
+        _cli("transfer", str(bracketed), "--style", str(bracketed), "-o", str(tmp_path / "a.bvh")).returncode
+        == 0
     )
     folder = f"{tmp_path / 'out'}/"
     assert _cli("transfer", str(walk), "--style", str(walk), "-o", folder).returncode == 0
@@ -862,7 +863,10 @@ def test_training_clips_of_one_skeleton_under_two_namings_train_together(
 
 
 def test_a_bind_pose_before_the_motion_is_noted(
-    dataset_clips: list[ClipRef], caplog: pytest.LogCaptureFixture
+    dataset_clips: list[ClipRef],
+    caplog: pytest.LogCaptureFixture,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     # many exporters write the rig's bind pose as frame 0; it was read as a frame of the motion, a 176-degree
     # jump into the next, without a word (as a style clip it moved the chosen windows, the output 28 cm apart)
@@ -883,3 +887,11 @@ def test_a_bind_pose_before_the_motion_is_noted(
     assert any("posed.bvh: its first frame is a pose apart from its motion" in note for note in notes), notes
     assert "posed_style.bvh: its first frame is a pose apart" in caplog.text
     assert not any("pose apart" in note for note in transfer(walk, style).explain["notes"])
+    # on the command line, said again when the style library comes from the cache (it was said only once)
+    write_bvh(tmp_path / "posed_style.bvh", posed)
+    write_bvh(tmp_path / "walk.bvh", walk)
+    monkeypatch.setenv("ELASTYLE_CACHE", str(tmp_path / "cache"))
+    for run in range(2):
+        done = _cli("transfer", str(tmp_path / "walk.bvh"), "--style", str(tmp_path / "posed_style.bvh"),
+                    "-o", str(tmp_path / f"out{run}.bvh"))  # fmt: skip
+        assert done.returncode == 0 and "posed_style.bvh: its first frame is a pose apart" in done.stderr, run

@@ -299,10 +299,15 @@ def test_explain_carries_part_styles_a_transitions_share_and_backward_windows(tm
     assert not any(p["style_backwards"] for p in explain["styles"][0]["patches"])  # older files: forwards
     assert explain["second_weight"] == {"times_s": [3.0, 5.0], "values": [0.0, 1.0]}
     assert explain["output"] == "out.bvh" and explain["output_path"] == "/x/out.bvh"
-    record["second_weight"] = {"times_s": [1.0]}
-    path.write_text(json.dumps(record))
-    with pytest.raises(ElastyleError, match=r"explain\.json: 'second_weight' lacks"):
-        read_explain(path)
+    assert "output_path" not in build_payload([], [], explain)["explain"]  # no folder goes to the page
+    for bad, message in (
+        ({"times_s": [1.0]}, "'second_weight' lacks"),
+        (None, "'model_fps' must be a positive"),
+    ):
+        broken = record | ({"second_weight": bad} if bad else {"model_fps": None})
+        path.write_text(json.dumps(broken))
+        with pytest.raises(ElastyleError, match=rf"explain\.json: {message}"):
+            read_explain(path)
 
 
 def test_the_page_on_port_80_is_served_to_a_browser_and_asks_for_no_icon(
@@ -349,6 +354,15 @@ def test_view_takes_folders_and_globs_and_tells_files_of_one_name_apart(
     assert "written for" not in stderr  # v2/out.bvh is shown (its name alike v1's had it warned of)
     stderr, _ = _view_stderr(str(tmp_path / "v1" / "out.bvh"), "--explain", str(explain))
     assert f"was written for {tmp_path / 'v2' / 'out.bvh'}, which is not among the clips shown" in stderr
+    bracketed = (
+        tmp_path / "take[1].bvh"
+    )  # glob characters in a file's name: that file (it was "no clips found")
+    bracketed.write_text(three_channel_bvh.read_text())
+    assert _view_stderr(str(bracketed))[1] == ["take[1].bvh"]
+    # an older file's path, relative to where transfer ran: matched by name, as before
+    explain.write_text(json.dumps(record | {"output": "results/out.bvh"}))
+    stderr, _ = _view_stderr(str(tmp_path / "v1" / "out.bvh"), "--explain", str(explain))
+    assert "written for" not in stderr
 
 
 def test_explain_shows_style_clips_by_name_only(tmp_path: Path) -> None:

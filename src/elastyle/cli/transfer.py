@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 from elastyle.cli.batch import Job, output_folder, require_dask, run_local, run_on_dask, transfer_one
 from elastyle.cli.options import add_config_flags, add_units_flag, config_from_args
-from elastyle.core.motion import Motion
+from elastyle.core.motion import Motion, leading_pose_note
 from elastyle.errors import BvhError, OutputError, SkeletonMismatchError, UsageError
 from elastyle.io.dataset import ClipRef, read_up
 from elastyle.steps.config import TransferConfig
@@ -197,9 +197,9 @@ def run_transfer(args: argparse.Namespace) -> int:
     def check(clip: ClipRef, motion: Motion) -> list[tuple[int, str]]:
         """How a style clip is read, as a content's is said: its notes (logging level, text)."""
         notes = []
-        note = model.check_clip(motion, clip.name)
-        if note is not None:
-            notes.append((logging.WARNING, note))
+        for note in (model.check_clip(motion, clip.name), leading_pose_note(motion, clip.name)):
+            if note is not None:  # kept with a cached library, and said again when it is read from there
+                notes.append((logging.WARNING, note))
         if abs(motion.fps - model.fps) > 1e-6:
             resampled = (
                 f"note: {clip.name} is {motion.fps:.6g} fps, resampled to the model's {model.fps:.6g} fps"

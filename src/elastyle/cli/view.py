@@ -83,9 +83,12 @@ def run_render(args: argparse.Namespace) -> int:
     return 0
 
 
-def _same_file(first: str, second: str) -> bool:
-    """Whether two paths (as given, relative to the current folder) name the same file."""
-    return os.path.abspath(first) == os.path.abspath(second)
+def _same_output(recorded: str, shown: str) -> bool:
+    """Whether an explain file's recorded output is a clip shown: the same file where it was recorded as an
+    absolute path; by name where relative (older files recorded the path relative to where transfer ran)."""
+    if os.path.isabs(recorded):
+        return os.path.abspath(shown) == os.path.normpath(recorded)
+    return Path(recorded).name == Path(shown).name
 
 
 def run_view(args: argparse.Namespace) -> int:
@@ -97,9 +100,12 @@ def run_view(args: argparse.Namespace) -> int:
         raise UsageError(f"--port must lie between 0 and 65535, got {args.port}")
     explain = read_explain(args.explain) if args.explain else None
     motions, labels, paths = _read_clips(args.clips, args.units)
-    if explain is not None:
-        written_for = explain.pop("output_path")  # the page gets the file's name only
-        if written_for and not any(_same_file(written_for, path) for path in paths):
+    written_for = explain["output_path"] if explain is not None else None
+    if explain is not None and written_for:
+        shown = [label for label, path in zip(labels, paths) if _same_output(written_for, path)]
+        if shown:
+            explain["output"] = shown[0]  # the page finds the output by its label
+        else:
             log.warning(
                 "warning: %s was written for %s, which is not among the clips shown: its patches are drawn on "
                 "their timeline all the same", args.explain, written_for,

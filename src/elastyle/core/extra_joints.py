@@ -49,15 +49,8 @@ def model_joints_in(model: Skeleton, clip: Skeleton) -> IntArray | None:
 
 def _by_name(model: Skeleton, clip: Skeleton) -> IntArray | None:
     """`model_joints_in` by joint names, or None."""
-    for key in (str, bare_name):
-        where = {key(name): joint for joint, name in enumerate(clip.names)}
-        if len(where) < clip.num_joints:
-            continue  # two joints of one name: no reading by name
-        found = [where.get(key(name)) for name in model.names]
-        missing = next((at for at, joint in enumerate(found) if joint is not None), len(found))  # leading
-        if missing > model.pelvis or None in found[missing:]:
-            continue  # lacks more than a static chain above the root
-        joints = np.array(found[missing:], dtype=np.int64)
+    for missing, found in _named(model, clip):
+        joints = np.array(found, dtype=np.int64)
         index = {int(joint): at for at, joint in enumerate(joints)}
         parents = [int(p) - missing if p >= missing else -1 for p in model.parents[missing:]]
         if all(index.get(int(clip.parents[joint]), -1) == parent for joint, parent in zip(joints, parents)):
@@ -65,22 +58,36 @@ def _by_name(model: Skeleton, clip: Skeleton) -> IntArray | None:
     return None
 
 
-def inserted_joints(model: Skeleton, clip: Skeleton) -> list[tuple[list[str], str, str]]:
-    """Where a clip that has every model joint under its name (or without namespaces) holds other joints
-    between a model joint and its model parent (a twist joint mid-arm, a third spine joint): for each such
-    place, the joints in between (clip names, top down), the parent's and the joint's model names. Empty for
-    a clip that lacks a model joint's name, or has none in between."""
+def _named(model: Skeleton, clip: Skeleton) -> list[tuple[int, list[int]]]:
+    """The ways a clip holds the model's joints by name (exactly, then without namespaces): the count of the
+    model's leading joints it lacks (a static chain above the root, at most up to the pelvis) and each other
+    model joint's clip index. None of a clip with two joints of one name or lacking any other model joint."""
+    ways = []
     for key in (str, bare_name):
         where = {key(name): joint for joint, name in enumerate(clip.names)}
+        if len(where) < clip.num_joints:
+            continue  # two joints of one name: no reading by name
         found = [where.get(key(name)) for name in model.names]
-        if None in found:
-            continue
+        missing = next((at for at, joint in enumerate(found) if joint is not None), len(found))  # leading
+        if missing <= model.pelvis and None not in found[missing:]:
+            ways.append((missing, [int(joint) for joint in found[missing:] if joint is not None]))
+    return ways
+
+
+def inserted_joints(model: Skeleton, clip: Skeleton) -> list[tuple[list[str], str, str]]:
+    """Where a clip that has the model's joints under their names (`_named`) holds other joints between a
+    model joint and its model parent (a twist joint mid-arm, a third spine joint): for each such place, the
+    joints in between (clip names, top down), the parent's and the joint's model names. Empty for a clip
+    that lacks a model joint's name, or has none in between."""
+    for missing, found in _named(model, clip):
+        at = dict(zip(range(missing, model.num_joints), found))  # model joint -> clip joint
         places = []
-        for joint, parent in enumerate(model.parents):
-            if parent < 0:
+        for joint in range(missing + 1, model.num_joints):
+            parent = int(model.parents[joint])
+            if parent < missing:
                 continue
-            between, above = [], int(clip.parents[found[joint]])
-            while above >= 0 and above != found[parent]:
+            between, above = [], int(clip.parents[at[joint]])
+            while above >= 0 and above != at[parent]:
                 between.append(clip.names[above])
                 above = int(clip.parents[above])
             if above >= 0 and between:

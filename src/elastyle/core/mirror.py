@@ -24,6 +24,7 @@ _REFLECT_X = np.diag([-1.0, 1.0, 1.0])
 # the reflections that map a joint's offsets onto its partner's within this (per vector, relative to its length)
 # all fit; only among them do the parent's reflection and the mean pose choose
 OFFSET_TOLERANCE = 0.2
+SHORTEST_VECTOR_OF_SIZE = 0.02  # offsets shorter than this share of the rig's longest do not choose
 SYMMETRIC_SHARE = 0.1  # the share of a clip's frames, its most symmetric, whose mean pose chooses among them
 
 
@@ -71,9 +72,11 @@ def local_reflections(motion: Motion, partner: IntArray) -> FloatArray:
         if other == joint:  # a centre joint's reflection must be its own inverse
             candidates = candidates[np.all(np.abs(candidates @ candidates - np.eye(3)) < 1e-9, axis=(1, 2))]
         ours, theirs = _child_vectors(skeleton, joint, partner)
-        # each vector's misfit relative to its own length, so a short bone's offsets decide as a long one's do
+        # each vector's misfit relative to its own length, so a short bone's offsets decide as a long one's do;
+        # vectors too short to point anywhere (an End Site of zeros carrying a file's rounding) have no say
         sizes = np.maximum(np.linalg.norm(ours, axis=-1), np.linalg.norm(theirs, axis=-1))  # (K,)
-        sizes = np.maximum(sizes, 1e-6 * scale)
+        pointing = sizes >= SHORTEST_VECTOR_OF_SIZE * scale
+        ours, theirs, sizes = ours[pointing], theirs[pointing], sizes[pointing]
         misfit = (
             np.linalg.norm(np.einsum("aij,kj->aki", candidates, ours) - theirs, axis=-1) / sizes
         )  # (24, K)

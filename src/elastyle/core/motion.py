@@ -136,10 +136,10 @@ def check_finite_clip(motion: Motion, name: str) -> None:
         raise BvhError(name, f"NaN or infinite values, first at frame {frame}")
 
 
-LEADING_POSE_DEG = (
-    60.0  # a first frame a joint turns this far from, far beyond the clip's own frame steps ...
-)
-LEADING_POSE_FACTOR = 4.0  # ... (this many times its largest) is a pose exported before the motion
+# a first frame some joint turns LEADING_POSE_DEG or more from, LEADING_POSE_FACTOR times as far as in any
+# later step of the clip, is a pose exported before the motion
+LEADING_POSE_DEG = 60.0
+LEADING_POSE_FACTOR = 4.0
 
 
 def leading_pose_note(motion: Motion, name: str) -> str | None:

@@ -77,7 +77,8 @@ def parse_bvh(data: bytes, name: str) -> tuple[Motion, BvhLayout]:
         text, encoding = data.decode("utf-8"), "utf-8"
     except UnicodeDecodeError:
         text, encoding = data.decode("latin-1"), "latin-1"
-    text = text.removeprefix("\ufeff")  # a UTF-8 byte-order mark, as some Windows tools write
+    if text.startswith("\ufeff"):  # a UTF-8 byte-order mark, as some Windows tools write: kept when written
+        text, encoding = text[1:], "utf-8-sig"
     lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
     reader = _Lines(name, lines)
     tokens, line = reader.next_tokens("HIERARCHY")

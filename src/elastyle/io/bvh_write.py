@@ -14,6 +14,7 @@ from elastyle.core.skeleton import Skeleton
 from elastyle.core.up import turned_back
 from elastyle.errors import BvhError, SkeletonMismatchError, UsageError
 from elastyle.io.bvh_layout import POSITION_CHANNELS, BvhLayout, channel_columns, first_rotation_values
+from elastyle.io.bvh_read import frame_rate
 from elastyle.io.euler import rotvec_to_euler
 from elastyle.io.files import write_bytes_atomic
 from elastyle.types import FloatArray
@@ -49,16 +50,21 @@ def _frame_time(fps: float, layout: BvhLayout) -> str:
     """The Frame Time line's number: the layout's file's own where the clip keeps its frame rate (as the file
     wrote it, 0.00833333 staying so), else the rate's to seven decimals (1/30 s: 0.0333333)."""
     own = _number(layout.frame_time_s, 10)
-    # the reader takes 0.00833333 s for 120 fps (`frame_rate`): within that rounding it is the file's rate
-    if abs(layout.frame_time_s * fps - 1.0) < 1e-5 and float(own) == layout.frame_time_s:
+    # the reader takes 0.00833333 s (and 0.008333) for 120 fps: where it reads the clip's rate, the file's text
+    if frame_rate(layout.frame_time_s) == fps and float(own) == layout.frame_time_s:
         return own
     return f"{1.0 / fps:.7f}"
 
 
-def _number(value: float, decimals: int) -> str:
-    """A number as its shortest text that reads back the same, to at most `decimals` decimals, no exponent
-    and no sign on zero."""
-    return np.format_float_positional(float(value) + 0.0, precision=decimals, unique=True, trim="-")
+def _number(value: float, decimals: int, pad: bool = False) -> str:
+    """A number as its shortest text that reads back the same, to at most `decimals` decimals (all of them
+    where `pad`), no exponent and no sign on zero."""
+    text = (
+        f"{float(value):.{decimals}f}"
+        if pad
+        else np.format_float_positional(float(value), precision=decimals, unique=True, trim="-")
+    )
+    return text[1:] if text.startswith("-") and float(text) == 0 else text
 
 
 def bvh_bytes(motion: Motion, layout: BvhLayout | None = None) -> bytes:
@@ -236,8 +242,8 @@ def _format_vector(vector: FloatArray) -> str:
 
 
 def _six_decimals(value: float) -> str:
-    text = f"{float(value) + 0.0:.6f}"
-    return text if float(text) == value else _number(value, 8)
+    text, longer = (_number(value, decimals, pad=True) for decimals in (6, 8))
+    return longer if float(text) != value and float(longer) == value else text
 
 
 def _channel_values(motion: Motion, layout: BvhLayout, written: list[int]) -> FloatArray:

@@ -163,10 +163,10 @@ def find_clips(specs: Iterable[str | os.PathLike[str]], pattern: str | None = No
             found = [
                 ClipRef(str(p)) for p in sorted(Path(spec).rglob("*")) if p.suffix.lower() in CLIP_SUFFIXES
             ]
+        elif Path(spec).exists():  # a file named with glob characters (walk[1].bvh) is that file
+            found = [ClipRef(spec)]
         elif any(c in spec for c in "*?["):
             found = [ClipRef(p) for p in sorted(glob.glob(spec, recursive=True)) if Path(p).is_file()]
-        elif Path(spec).exists():
-            found = [ClipRef(spec)]
         else:
             raise DatasetError(f"{spec}: no such file, folder or archive")
         if pattern:

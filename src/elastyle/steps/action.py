@@ -108,8 +108,12 @@ def standing_legs(actions: FloatArray, leg_columns: IntArray, fps: float) -> Boo
     """(T,) the frames of `action_channels` (T, A) where the legs stand: the pelvis travels, every foot rises
     or falls slower than `STILL_LEGS_S` and the body turns slower than `STILL_TURNING`; leg_columns: the
     legs' columns (`part_channels`: travel, turning, then the feet's heights)."""
-    feet = actions[:, leg_columns[3:]]  # (T, F) heights, legs
-    moving = (lengths(actions[:, :2]) > STILL_LEGS_S) | (np.abs(actions[:, TURNING_COLUMN]) > STILL_TURNING)
+    travel, turning, feet = (
+        actions[:, leg_columns[:2]],
+        actions[:, leg_columns[2]],
+        actions[:, leg_columns[3:]],
+    )
+    moving = (lengths(travel) > STILL_LEGS_S) | (np.abs(turning) > STILL_TURNING)
     moving |= np.any(np.abs(frame_steps(feet)) * fps > STILL_LEGS_S, axis=1)
     return ~moving
 

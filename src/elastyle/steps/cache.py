@@ -43,7 +43,7 @@ def cache_folder() -> Path:
 # smoothed to the clip's ends (`core.smoothing.smooth_path`: the latents near its ends change); 7: clips standing
 # along +Z read turned to +Y up (`core.up`), the reading's --up in the key; 8: a clip read under other joint names
 # mirrored by the model's names (`steps.library`); 9: the clips' reading notes kept, said again on a hit
-CACHE_VERSION = 10
+CACHE_VERSION = 11
 Note = tuple[int, str]  # a logging level and the text said at it
 
 

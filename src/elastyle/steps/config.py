@@ -128,8 +128,8 @@ class TransferConfig:
         0.45,
         "where the legs keep the content's action because the matched style windows perform another (their "
         "travel and steps differ, not only their turning: a walk given a run's or a wave's style), the share of "
-        "the style's statistics (the report's colouring of the content's latents) they take on top of it; "
-        "0: the content's own legs",
+        "the style's statistics (the report's colouring of the content's latents) they take on top of it "
+        "(none where they stand: a stepping style's statistics are a stride's bent knees); 0: the content's own legs",
         low=0.0, high=1.0,
     )  # fmt: skip
     arm_offset_above: float = option(

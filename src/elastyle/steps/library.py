@@ -121,12 +121,9 @@ def prepare_style(
         raise ConfigError(
             f"{len(names)} style name(s) for {len(motions)} style clip(s): give one name per clip"
         )
-    names = list(names) if names is not None else [f"style{i}" for i in range(len(motions))]
+    names = _named_clips(names, len(motions))
     for name, motion in zip(names, motions):  # every clip checked before any is encoded
         check_finite_clip(motion, name)
-        note = leading_pose_note(motion, name)
-        if note is not None:
-            log.warning("%s", note)
     clips: list[tuple[str, bool, Motion]] = []
     for name, motion in zip(names, motions):
         model.check_clip(motion, name)
@@ -189,9 +186,18 @@ def as_library(
             f"the style must be a Motion, a list of them or a StyleLibrary, got {type(style).__name__} "
             f"{style!r:.60}"
         )
-    return prepare_style(
-        model, [style] if isinstance(style, Motion) else list(style), names, mirror_style, reverse_style
-    )
+    motions = [style] if isinstance(style, Motion) else list(style)
+    if names is None or len(names) == len(motions):
+        for name, motion in zip(_named_clips(names, len(motions)), motions):
+            note = leading_pose_note(motion, name) if isinstance(motion, Motion) else None
+            if note is not None:  # said here: a prepared library's clips had it said where they were read
+                log.warning("%s", note)
+    return prepare_style(model, motions, names, mirror_style, reverse_style)
+
+
+def _named_clips(names: Sequence[str] | None, count: int) -> list[str]:
+    """The names of `count` style clips: as given, else style0, style1, ..."""
+    return list(names) if names is not None else [f"style{i}" for i in range(count)]
 
 
 def check_prepared(library: StyleLibrary, model: StyleModel, mirror_style: bool, reverse_style: bool) -> None:

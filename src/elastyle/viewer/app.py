@@ -71,6 +71,8 @@ def build_payload(
             }
         )
     height = height if height > 0 else 1.0
+    if explain is not None:  # the page gets the output's name: no folder of the user's goes out
+        explain = {key: value for key, value in explain.items() if key != "output_path"}
     return {"clips": clips, "height": height, "grid_spacing": grid_spacing(height), "explain": explain}
 
 
@@ -113,7 +115,7 @@ def read_explain(path: str | os.PathLike[str]) -> dict[str, Any]:
             _track(entry, path) | {"parts": [str(part) for part in entry.get("parts", [])]} for entry in parts
         ],
         "second_weight": _second_weight(record.get("second_weight"), path),
-        "model_fps": float(record.get("model_fps", 30.0)),
+        "model_fps": _model_fps(record.get("model_fps", 30.0), path),
         "output": PurePath(str(output)).name if output else None,  # what the page shows of it
         "output_path": str(output)
         if output
@@ -143,6 +145,17 @@ def _track(style: Any, path: str | os.PathLike[str]) -> dict[str, Any]:
     except (KeyError, TypeError, ValueError) as error:
         raise ElastyleError(f"{path}: a patch lacks or mangles field {error}") from None
     return {"patches": sorted(rows, key=lambda row: row["output_start_s"])}
+
+
+def _model_fps(value: Any, path: str | os.PathLike[str]) -> float:
+    """The model's frame rate the patches' frames count in: a positive number."""
+    try:
+        fps = float(value)
+    except (TypeError, ValueError):
+        fps = float("nan")
+    if not fps > 0 or not np.isfinite(fps):
+        raise ElastyleError(f"{path}: 'model_fps' must be a positive number, got {value!r:.40}")
+    return fps
 
 
 def _second_weight(weight: Any, path: str | os.PathLike[str]) -> dict[str, list[float]] | None:
