@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import shlex
 from pathlib import Path
 
 import numpy as np
@@ -240,9 +242,36 @@ def test_ctrl_c_ends_training_with_a_checkpoint_to_resume(tmp_path: Path, data_p
     _, stderr = process.communicate(timeout=120)
     assert process.returncode == 130, stderr
     assert "interrupted at step" in stderr and f"--resume {checkpoint}" in stderr, stderr
+    # the command to continue names the clips and the budget (a resume without a budget is refused)
+    assert f"elastyle train {shlex.quote(data)} -o {output} --resume {checkpoint} --steps 100000`" in stderr
     assert "warning: 4 training clip(s)" in "".join(before)  # so few clips are said to teach little
     assert checkpoint.exists() and not output.exists()
     assert "Traceback" not in stderr
+
+
+@pytest.mark.slow
+def test_ctrl_c_while_the_clips_load_ends_training_cleanly(tmp_path: Path, dataset_clips) -> None:  # type: ignore[no-untyped-def]
+    """Ctrl-C reaches the whole process group: the processes reading the clips each printed a traceback, and
+    the command could end with an internal error (BrokenProcessPool, exit 1) or torch's cache statistics."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    clips = [c for c in dataset_clips if "_walk_" in c.name][:24]  # more than 8: read by a process pool
+    for clip in clips:
+        (tmp_path / Path(clip.member or clip.name).name).write_bytes(clip.data())
+    for delay in (0.3, 0.8, 1.5):  # wherever it lands: while reading, importing torch or training
+        command = [sys.executable, "-m", "elastyle.cli", "train", str(tmp_path), "-o", str(tmp_path / "m.npz"),
+                   "--minutes", "1", "--no-progress", "--force"]  # fmt: skip
+        process = subprocess.Popen(command, stderr=subprocess.PIPE, text=True, start_new_session=True)
+        time.sleep(delay)
+        os.killpg(process.pid, signal.SIGINT)  # as a terminal's Ctrl-C does
+        _, stderr = process.communicate(timeout=60)
+        assert process.returncode == 130, (delay, stderr)
+        assert "Traceback" not in stderr and "internal error" not in stderr and "cache_hits" not in stderr, (
+            stderr
+        )
 
 
 @pytest.mark.slow

@@ -219,9 +219,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             # clips after a --style that takes one: the usual slip with several style clips
             hint = f"; give each style clip its own --style (--style {unknown[0]}), or a folder or glob"
         parser.commands[args.command].error(f"unrecognized arguments: {' '.join(unknown)}{hint}")
-    logging.basicConfig(
-        level=logging.DEBUG if args.verbose else logging.INFO, format="%(message)s", stream=sys.stderr
-    )
+    # elastyle's own messages from INFO on (DEBUG with --verbose); other libraries' from WARNING on: torch,
+    # interrupted while it loads, had its INFO log (FakeTensor cache statistics) printed at exit
+    logging.basicConfig(level=logging.WARNING, format="%(message)s", stream=sys.stderr)
+    logging.getLogger("elastyle").setLevel(logging.DEBUG if args.verbose else logging.INFO)
     from elastyle.io.dataset import set_read_up
 
     set_read_up(args.up)

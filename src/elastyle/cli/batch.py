@@ -20,6 +20,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
+from elastyle.core.threads import stop_workers
 from elastyle.errors import ElastyleError, UsageError
 
 if TYPE_CHECKING:
@@ -158,10 +159,8 @@ def run_local(job: Job, contents: list[str], targets: list[Path], jobs: int | No
         futures = {pool.submit(_worker_transfer, task): task for task in zip(contents, targets)}
         try:
             return _write_all(job, as_completed(futures), futures, lambda future: future.result())
-        except KeyboardInterrupt:  # the clips not begun are dropped, not transferred and thrown away ...
-            pool.shutdown(wait=False, cancel_futures=True)
-            for worker in multiprocessing.active_children():  # ... and those under way end now (workers
-                worker.terminate()  # write nothing: the outputs are this process's to write)
+        except KeyboardInterrupt:  # the clips not begun are dropped and those under way end now (workers
+            stop_workers(pool)  # write nothing: the outputs are this process's to write)
             raise
 
 

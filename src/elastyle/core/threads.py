@@ -1,10 +1,13 @@
 """Deterministic numbers: elastyle's products run on one BLAS thread, so a transfer gives the same bytes
 whatever thread count the machine or the user's environment sets (a multi-threaded BLAS sums in another
-order, which moves values near 1e-4 after the decoder). Batches use processes for parallelism instead."""
+order, which moves values near 1e-4 after the decoder). Batches use processes for parallelism instead, and
+`stop_workers` ends them at once on Ctrl-C or a kill."""
 
 from __future__ import annotations
 
+import multiprocessing
 from collections.abc import Callable
+from concurrent.futures import Executor
 from functools import cache, wraps
 from typing import ParamSpec, TypeVar
 
@@ -30,3 +33,11 @@ def one_blas_thread(function: Callable[Params, Result]) -> Callable[Params, Resu
             return function(*args, **kwargs)
 
     return limited
+
+
+def stop_workers(pool: Executor) -> None:
+    """A process pool's queued tasks dropped and its working processes ended now (on Ctrl-C or a kill: the
+    command's, which then reports it; waiting would run every queued task first)."""
+    pool.shutdown(wait=False, cancel_futures=True)
+    for worker in multiprocessing.active_children():
+        worker.terminate()

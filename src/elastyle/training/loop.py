@@ -12,6 +12,7 @@ import json
 import logging
 import math
 import os
+import shlex
 import time
 from collections.abc import Sequence
 from dataclasses import asdict
@@ -259,9 +260,13 @@ def train(
     elapsed = elapsed_before + time.perf_counter() - started
     save_checkpoint(checkpoint_path, network, optimizer, step, elapsed, config, clip_names)
     if stop.asked:
+        budget = f"--minutes {config.minutes:g}" if config.minutes is not None else f"--steps {config.steps}"
+        given = " ".join(shlex.quote(str(spec)) for spec in data)
         log.warning(
-            "interrupted at step %d: the training so far is in %s; continue it with `elastyle train ... -o %s "
-            "--resume %s` (the same clips)", step, checkpoint_path, output, checkpoint_path
+            "interrupted at step %d: the training so far is in %s; continue it with `elastyle train %s -o %s "
+            "--resume %s %s` (the same clips and options; the budget counts the training so far, so raise it "
+            "to train longer)", step, checkpoint_path, given, shlex.quote(output), shlex.quote(str(checkpoint_path)),
+            budget,
         )  # fmt: skip
         raise KeyboardInterrupt
     if val_batch is not None:
