@@ -6,6 +6,7 @@ the same transfer gives byte-identical files, also across processes.
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import subprocess
@@ -528,6 +529,29 @@ def test_content_folders_globs_and_a_refused_batch(tmp_path: Path, dataset_clips
     result = _cli("transfer", str(walks[0]), str(other), "--style", str(style), "-o", f"{tmp_path / 'c'}/")
     assert result.returncode == 1 and str(other) in result.stderr and str(walks[0]) in result.stderr
     assert not (tmp_path / "c").exists()
+
+
+def test_a_batch_writes_an_explain_record_per_output(tmp_path: Path, dataset_clips: list[ClipRef]) -> None:
+    # a batch refused --explain altogether; a pipeline auditing one had to run every clip alone
+    walks = _dataset_copies(
+        tmp_path / "walks", dataset_clips, ["dataset-2_walk_normal_005", "dataset-2_walk_normal_010"]
+    )
+    style = _dataset_copies(tmp_path / "style", dataset_clips, ["dataset-2_walk_active_010"])[0]
+    out, records = tmp_path / "out", tmp_path / "records"
+    done = _cli("transfer", str(tmp_path / "walks"), "--style", str(style), "-o", f"{out}/", "--explain",
+                f"{records}/", "--jobs", "2")  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert sorted(p.name for p in records.iterdir()) == sorted(w.stem + ".json" for w in walks)
+    single = tmp_path / "single.json"
+    alone = _cli("transfer", str(walks[1]), "--style", str(style), "-o", str(tmp_path / "single.bvh"),
+                 "--explain", str(single))  # fmt: skip
+    assert alone.returncode == 0, alone.stderr
+    batch_record = json.loads((records / f"{walks[1].stem}.json").read_text())
+    assert batch_record["output"] == str(out / f"{walks[1].stem}.bvh")
+    assert batch_record["styles"] == json.loads(single.read_text())["styles"]  # the same record as alone
+    refused = _cli("transfer", str(tmp_path / "walks"), "--style", str(style), "-o", f"{tmp_path / 'o2'}/",
+                   "--explain", str(tmp_path / "ex.json"))  # fmt: skip
+    assert refused.returncode == 2 and f"give a folder (--explain {tmp_path / 'ex'}/)" in refused.stderr
 
 
 def test_demo_refuses_before_writing_anything(tmp_path: Path, data_path: Path) -> None:

@@ -34,6 +34,9 @@ CONNECT_TIMEOUT_S = 20  # how long to wait for a Dask scheduler to answer
 DASK_RESUBMITS = 5  # a clip whose Dask task is cancelled this often is given up (one error line)
 
 
+Output = tuple[bytes, str | None]  # an output file's bytes and its explain record (JSON text), if asked
+
+
 class Job(NamedTuple):
     """Everything a content clip's transfer needs besides the clip: shared by the batch's workers."""
 
@@ -46,28 +49,30 @@ class Job(NamedTuple):
     units: str | None  # the content clips' length unit as stated (`core.body.UNITS`), None: guessed
     up: str  # how the content clips' up axis is read (`io.dataset.ClipRef.read`): workers elsewhere know it too
     force: bool
-    explain: str | None
+    explain: str | None  # a file for one content clip, or a folder (DIR/) for a record per output
     inputs: tuple[str, ...]  # what the command reads: never written
     model_file: str | None  # as given (--model), None for the shipped model: recorded in the explain file
 
 
 def transfer_one(job: Job, content_spec: str, target: Path) -> None:
     """Read one content clip, transfer it and write its output (and explain file) atomically."""
-    from elastyle.io.files import write_text_atomic
-
-    output, explain = _transfer(job, content_spec, target)
-    _write(job, target, output)
-    if job.explain:
-        # the output's absolute path: `view` tells whether the clips it shows include it
-        output_path = os.path.abspath(target)
-        explain = dict(explain, content=content_spec, output=output_path, model=job.model_file or "shipped")
-        write_text_atomic(
-            job.explain, json.dumps(explain, indent=1), force=job.force, inputs=(*job.inputs, str(target))
-        )
+    _write(job, target, *_transfer(job, content_spec, target))
 
 
-def _transfer(job: Job, content_spec: str, target: Path) -> tuple[bytes, dict[str, Any]]:
-    """One content clip read and transferred: the bytes of its output file and the explain record."""
+def explain_folder(explain: str) -> bool:
+    """Whether an --explain path names a folder (DIR/, or one that exists): a record per output in it."""
+    return explain.endswith(("/", "\\")) or Path(explain).is_dir()
+
+
+def explain_path(explain: str, target: Path) -> Path:
+    """Where the explain record of the output `target` goes: the file given, or in a folder given the
+    output's name with .json."""
+    return Path(explain) / (target.stem + ".json") if explain_folder(explain) else Path(explain)
+
+
+def _transfer(job: Job, content_spec: str, target: Path) -> Output:
+    """One content clip read and transferred: the bytes of its output file and its explain record's text
+    (None where none is asked for)."""
     from elastyle.core.body import in_units
     from elastyle.io.clip_write import clip_bytes
     from elastyle.io.dataset import read_clip
@@ -81,26 +86,39 @@ def _transfer(job: Job, content_spec: str, target: Path) -> tuple[bytes, dict[st
     )  # fmt: skip
     log.info("transferred %s (%d frames, %.2f s; content %.2f s)", content_spec, result.motion.num_frames,
              result.motion.duration_s, motion.duration_s)  # fmt: skip
+    if not job.explain:
+        return clip_bytes(target, result.motion, layout), None
     explain = result.explain
     if layout.up != "y":  # said when read (once per process), recorded for every clip
         turned = (
             f"note: {content_spec}: read with +{layout.up.upper()} up, turned to +Y up, and written back so"
         )
         explain = dict(explain, notes=[turned, *explain["notes"]])
-    return clip_bytes(target, result.motion, layout), explain
+    # the output's absolute path: `view` tells whether the clips it shows include it
+    output_path = os.path.abspath(target)
+    explain = dict(explain, content=content_spec, output=output_path, model=job.model_file or "shipped")
+    return clip_bytes(target, result.motion, layout), json.dumps(explain, indent=1)
 
 
-def _write(job: Job, target: Path, output: bytes) -> None:
-    from elastyle.io.files import write_bytes_atomic
+def _write(job: Job, target: Path, output: bytes, explain: str | None) -> None:
+    """An output file, and its explain record where one is asked for, each atomically."""
+    from elastyle.io.files import write_bytes_atomic, write_text_atomic
 
     write_bytes_atomic(target, output, force=job.force, inputs=job.inputs)
     log.info("wrote %s", target)
+    if job.explain and explain is not None:
+        if explain_folder(job.explain):  # made with the first record (its parent was checked beforehand)
+            Path(job.explain).mkdir(exist_ok=True)
+        write_text_atomic(
+            explain_path(job.explain, target), explain, force=job.force, inputs=(*job.inputs, str(target))
+        )
 
 
-def transfer_task(job: Job, content_spec: str, target: Path) -> bytes | str:
-    """One batch item wherever it runs: the output file's bytes, or the one-line error."""
+def transfer_task(job: Job, content_spec: str, target: Path) -> Output | str:
+    """One batch item wherever it runs: the output file's bytes and its explain record, or the one-line
+    error."""
     try:
-        return _transfer(job, content_spec, target)[0]
+        return _transfer(job, content_spec, target)
     except ElastyleError as error:
         return str(error)
 
@@ -125,7 +143,7 @@ def _worker_start(job: Job) -> None:
     threading.Thread(target=watch, daemon=True).start()
 
 
-def _worker_transfer(task: tuple[str, Path]) -> bytes | str:
+def _worker_transfer(task: tuple[str, Path]) -> Output | str:
     return transfer_task(_WORKER_JOB[0], *task)
 
 
@@ -204,7 +222,7 @@ def run_on_dask(job: Job, contents: list[str], targets: list[Path], address: str
         futures = {submit(task): task for task in zip(contents, targets)}
         done = as_completed(futures)
 
-        def result(future: Any) -> bytes | str | None:
+        def result(future: Any) -> Output | str | None:
             try:
                 return future.result()  # type: ignore[no-any-return]
             except CancelledError:
@@ -227,11 +245,11 @@ def _write_all(
     job: Job,
     done: Iterable[Any],
     tasks: dict[Any, tuple[str, Path]],
-    result: Callable[[Any], bytes | str | None],
+    result: Callable[[Any], Output | str | None],
 ) -> int:
     """Each finished task's output written (a progress bar on a terminal), one error line per failed clip;
-    the exit code. `result` gives a task's output file bytes, its one-line error, or None where the task
-    was submitted again (it comes back through `done`)."""
+    the exit code. `result` gives a task's output file bytes and explain record, its one-line error, or
+    None where the task was submitted again (it comes back through `done`)."""
     from tqdm import tqdm
 
     failures, total = 0, len(tasks)
@@ -244,7 +262,7 @@ def _write_all(
             try:
                 if isinstance(output, str):
                     raise ElastyleError(output)
-                _write(job, target, output)
+                _write(job, target, *output)
             except ElastyleError as error:
                 failures += 1
                 bar.write(f"elastyle: error: {error}", file=sys.stderr)

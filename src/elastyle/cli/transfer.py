@@ -8,7 +8,16 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from elastyle.cli.batch import Job, output_folder, require_dask, run_local, run_on_dask, transfer_one
+from elastyle.cli.batch import (
+    Job,
+    explain_folder,
+    explain_path,
+    output_folder,
+    require_dask,
+    run_local,
+    run_on_dask,
+    transfer_one,
+)
 from elastyle.cli.options import add_config_flags, add_units_flag, config_from_args
 from elastyle.core.motion import Motion, leading_pose_note
 from elastyle.errors import BvhError, OutputError, SkeletonMismatchError, UsageError
@@ -58,7 +67,9 @@ def add_transfer_command(commands: Any) -> None:
     parser.add_argument("--blend-style", action="append", help="a second style blended in at --blend")
     parser.add_argument("--blend", type=float, help="share of --blend-style, 0..1 (default 0.5)")
     parser.add_argument(
-        "--explain", help="write a JSON record of every output patch's source (one content clip only)"
+        "--explain",
+        help="write a JSON record of every output patch's source: a file for one content clip, or a folder (DIR/) "
+        "for a record per output, named as the output with .json",
     )
     parser.add_argument("--no-cache", action="store_true", help="encode the style library afresh (no cache)")
     parser.add_argument(
@@ -190,8 +201,18 @@ def run_transfer(args: argparse.Namespace) -> int:
     for spec in args.content:  # a missing content file is named before any work on the style
         if not Path(spec).exists() and ".zip" not in spec.lower():
             find_clips([spec])
-    if args.explain:
-        check_output_path(args.explain, force=args.force, inputs=(*_inputs(args), *map(str, targets)))
+    if args.explain and explain_folder(args.explain) and not Path(args.explain).is_dir():
+        if not Path(args.explain).parent.is_dir():  # made with the first record
+            raise OutputError(
+                f"{args.explain}: the explain records' folder cannot be made: its parent does not exist"
+            )
+    elif args.explain:
+        for target in targets:  # each record's file, as the outputs are checked before any work
+            check_output_path(
+                explain_path(args.explain, target),
+                force=args.force,
+                inputs=(*_inputs(args), *map(str, targets)),
+            )
     model = load_model(args.model)
 
     def check(clip: ClipRef, motion: Motion) -> list[tuple[int, str]]:
@@ -313,5 +334,8 @@ def _check_style_options(args: argparse.Namespace) -> None:
         )
     if args.jobs is not None and args.jobs < 1:
         raise UsageError(f"--jobs must be at least 1, got {args.jobs}")
-    if args.explain and len(args.content) > 1:
-        raise UsageError("--explain works with one content clip")
+    if args.explain and len(args.content) > 1 and not explain_folder(args.explain):
+        raise UsageError(
+            f"--explain {args.explain}: several content clips write one record each: give a folder (--explain "
+            f"{Path(args.explain).with_suffix('')}/)"
+        )
