@@ -26,6 +26,7 @@ from elastyle import (
     write_clip,
 )
 from elastyle.steps.schedule import Schedule
+from tests.conftest import clip_named
 
 
 def test_too_few_or_too_many_style_names_are_refused(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
@@ -252,3 +253,19 @@ def test_options_the_method_does_not_read_are_noted(model, content: Motion, styl
     assert not any(
         "no effect" in note for note in transfer(content, style_clip, model=model).explain["notes"]
     )
+
+
+def test_a_library_prints_as_a_summary_and_a_bad_size_limit_is_said(
+    dataset_clips, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:  # type: ignore[no-untyped-def]
+    # print(library) dumped some 10 KB of arrays; ELASTYLE_CACHE_MB=abc was ignored without a word
+    from elastyle.io.files import megabytes_from_environment
+    from elastyle.steps.library import prepare_style
+
+    style = clip_named(dataset_clips, "dataset-2_walk_elderly_010").read()[0]
+    text = repr(prepare_style(None, [style], ["elderly.bvh"]))
+    assert text.startswith("StyleLibrary(2 clip(s)") and "elderly.bvh" in text and len(text) < 200, text
+    monkeypatch.setenv("ELASTYLE_CACHE_MB", "abc")
+    with caplog.at_level("WARNING", logger="elastyle"):
+        assert megabytes_from_environment("ELASTYLE_CACHE_MB", 1024) == 1024 * 2**20
+    assert "ELASTYLE_CACHE_MB=abc is not a number of megabytes" in caplog.text

@@ -4,6 +4,7 @@ new file exactly one wins."""
 
 from __future__ import annotations
 
+import logging
 import os
 import stat
 import tempfile
@@ -11,19 +12,29 @@ from pathlib import Path
 
 from elastyle.errors import OutputError
 
+log = logging.getLogger(__name__)
+
 MAX_INPUT_VARIABLE = "ELASTYLE_MAX_INPUT_MB"
 DEFAULT_MAX_INPUT_MB = 512.0  # about an hour of 120 fps capture of a 60-joint skeleton
 
 
 def megabytes_from_environment(variable: str, default_mb: float) -> int:
-    """A size limit in bytes from an environment variable in megabytes (the default when unset or not a
-    number)."""
+    """A size limit in bytes from an environment variable in megabytes (the default when unset; a warning
+    naming it where it is not a number of megabytes, 0 or more)."""
     text = os.environ.get(variable, "")
     try:
         megabytes = float(text) if text else default_mb
     except ValueError:
+        megabytes = float("nan")
+    if not megabytes >= 0 or megabytes == float("inf"):
+        log.warning(
+            "warning: %s=%s is not a number of megabytes (0 or more): %g MB is used",
+            variable,
+            text,
+            default_mb,
+        )
         megabytes = default_mb
-    return int(max(megabytes, 0.0) * 2**20)
+    return int(megabytes * 2**20)
 
 
 def max_input_bytes() -> int:

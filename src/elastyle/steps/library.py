@@ -41,6 +41,14 @@ class StyleLibrary:
     stats: LatentStats
     backwards: list[bool] = field(default_factory=list)
     model: StyleModel | None = None
+
+    def __repr__(self) -> str:  # its arrays are the whole library: a summary, not kilobytes of numbers
+        clips = ", ".join(dict.fromkeys(self.names))
+        return (
+            f"StyleLibrary({len(self.names)} clip(s) with mirrors and reversals: {clips}; "
+            f"{self.latents.shape[0]} frames of {self.latents.shape[1]} latents)"
+        )
+
     _white: dict[float, FloatArray] = field(default_factory=dict)
     _windows: dict[tuple[int, float, float, int], StyleWindows] = field(default_factory=dict)
     _derived: dict[Hashable, Any] = field(default_factory=dict)
