@@ -261,7 +261,12 @@ def test_ctrl_c_while_the_clips_load_ends_training_cleanly(tmp_path: Path, datas
     clips = [c for c in dataset_clips if "_walk_" in c.name][:24]  # more than 8: read by a process pool
     for clip in clips:
         (tmp_path / Path(clip.member or clip.name).name).write_bytes(clip.data())
-    for delay in (0.3, 0.8, 1.5):  # wherever it lands: while reading, importing torch or training
+    for delay in (
+        0.8,
+        1.2,
+        1.6,
+        2.0,
+    ):  # after start-up, wherever it lands: reading, importing torch, training
         command = [sys.executable, "-m", "elastyle.cli", "train", str(tmp_path), "-o", str(tmp_path / "m.npz"),
                    "--minutes", "1", "--no-progress", "--force"]  # fmt: skip
         process = subprocess.Popen(command, stderr=subprocess.PIPE, text=True, start_new_session=True)

@@ -106,7 +106,7 @@ def test_a_z_up_clip_converts_to_a_y_up_gltf_and_reports_its_height(
     assert "up:       +Z" in infos[0] and "up:       +Y" in infos[1]
 
 
-def test_a_stated_up_is_checked_and_handed_to_every_reading_process(
+def test_a_stated_up_is_checked_and_read_by_training(
     tmp_path: Path, dataset_clips: list[ClipRef], caplog
 ) -> None:  # type: ignore[no-untyped-def]
     from elastyle.training.clips import load_motions
@@ -118,7 +118,7 @@ def test_a_stated_up_is_checked_and_handed_to_every_reading_process(
     with caplog.at_level("WARNING"):
         read_clip(z_up, up="y")
     assert "its body stands along +Z, but it is read with +Y up as --up says" in caplog.text
-    # training reads more than 8 clips in other processes: each is told the axis, whatever their start
+    # training reads its clips with the axis it is told
     clips = [ClipRef(str(_z_up_copy(walk, tmp_path / f"z_{take:03d}.bvh"))) for take in range(9)]
     as_filed = load_motions(clips, None, up="y")
     turned = load_motions(clips, None, up="auto")

@@ -169,11 +169,13 @@ def _check_train_outputs(args: argparse.Namespace) -> None:
 def _command_train(args: argparse.Namespace) -> int:
     _check_train_args(args)
     _check_train_outputs(args)
+    from elastyle.training.checkpoint import checkpoint_config, interrupts_deferred
+
     try:
-        import torch
+        with interrupts_deferred():  # torch's import cut short by Ctrl-C left the command killed or aborting
+            import torch
     except ImportError:
         raise ElastyleError("training needs torch: pip install 'elastyle[train]'") from None
-    from elastyle.training.checkpoint import checkpoint_config
     from elastyle.training.loop import train
 
     if args.threads:

@@ -6,6 +6,8 @@ from __future__ import annotations
 import json
 import signal
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import asdict, fields
 from pathlib import Path
 from typing import Any
@@ -74,6 +76,28 @@ class StopOnInterrupt:
 
 def _interrupt_now(signum: int, frame: Any) -> None:
     raise KeyboardInterrupt
+
+
+@contextmanager
+def interrupts_deferred() -> Iterator[None]:
+    """Ctrl-C or a kill during the block takes effect as it ends (a KeyboardInterrupt then): for torch's
+    import, which, cut short, left the command killed by the signal after it said it was interrupted, or
+    aborting. In the main thread only (elsewhere: nothing changes)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    asked: list[int] = []
+    previous = {
+        number: signal.signal(number, lambda signum, frame: asked.append(signum))
+        for number in StopOnInterrupt.SIGNALS
+    }
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+    if asked:
+        raise KeyboardInterrupt
 
 
 def save_checkpoint(
