@@ -919,3 +919,15 @@ def test_a_bind_pose_before_the_motion_is_noted(
         done = _cli("transfer", str(tmp_path / "walk.bvh"), "--style", str(tmp_path / "posed_style.bvh"),
                     "-o", str(tmp_path / f"out{run}.bvh"))  # fmt: skip
         assert done.returncode == 0 and "posed_style.bvh: its first frame is a pose apart" in done.stderr, run
+
+
+def test_a_cache_setting_naming_a_file_is_said(
+    tmp_path: Path, dataset_clips: list[ClipRef], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # ELASTYLE_CACHE naming a file: every library was encoded again, without a word
+    walk = _dataset_copies(tmp_path, dataset_clips, ["dataset-2_walk_normal_005"])[0]
+    (tmp_path / "cachefile").write_text("")
+    monkeypatch.setenv("ELASTYLE_CACHE", str(tmp_path / "cachefile"))
+    done = _cli("transfer", str(walk), "--style", str(walk), "-o", str(tmp_path / "out.bvh"))
+    assert done.returncode == 0 and "cannot write the style cache in" in done.stderr, done.stderr
+    assert done.stderr.count("cannot write the style cache") == 1

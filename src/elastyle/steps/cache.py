@@ -115,8 +115,24 @@ def load_library(
             write_bytes_atomic(path, buffer.getvalue(), force=True)
             prune_cache(path.parent, cache_limit_bytes(), keep=path)
         except (OSError, OutputError) as error:  # a read-only home is no reason to fail a transfer
-            log.debug("cannot cache the style library: %s", error)
+            _cannot_cache(path.parent, error)
     return library
+
+
+_WARNED_CACHE: set[Path] = set()  # the cache folders said to be unwritable in this process
+
+
+def _cannot_cache(folder: Path, error: Exception) -> None:
+    """Said once per folder where the user named it ($ELASTYLE_CACHE: a file there was passed over without a
+    word); where it is the default under the home folder (read-only on some machines), only in --verbose."""
+    if not os.environ.get("ELASTYLE_CACHE") or folder in _WARNED_CACHE:
+        log.debug("cannot cache the style library in %s: %s", folder, error)
+        return
+    _WARNED_CACHE.add(folder)
+    log.warning(
+        "warning: cannot write the style cache in %s (%s): ELASTYLE_CACHE must name a folder this user can "
+        "write; transferring without the cache", folder, error,
+    )  # fmt: skip
 
 
 def _say(notes: list[Note]) -> None:
