@@ -36,10 +36,8 @@ def model_joints_in(model: Skeleton, clip: Skeleton) -> IntArray | None:
     by the hierarchy (`_by_hierarchy`: extra joints only below the model's end joints), for the caller to
     check as the model's skeleton under other names (`core.body.same_structure`)."""
     by_name = _by_name(model, clip)
-    if by_name is None and inserted_joints(model, clip):
-        return (
-            None  # the model's names, other joints between them: not the model's skeleton under other names
-        )
+    if by_name is None and inserted_joints(model, clip):  # the model's names with other joints between them:
+        return None  # not the model's skeleton under other names
     joints = by_name if by_name is not None else _by_hierarchy(model, clip)
     if joints is None:
         return None

@@ -8,7 +8,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from elastyle.core.resample import interpolate_rows
-from elastyle.core.rotations import canonical_log, lengths, quat_multiply, slerp_resample, to_quat
+from elastyle.core.rotations import lengths, multiply, slerp_resample
 from elastyle.core.skeleton import Skeleton, forward_kinematics
 from elastyle.errors import BvhError
 from elastyle.types import FloatArray, IntArray
@@ -148,9 +148,8 @@ def leading_pose_note(motion: Motion, name: str) -> str | None:
     `LEADING_POSE_FACTOR` times as far as in any later step; None otherwise."""
     if motion.num_frames < 3:
         return None
-    quats = to_quat(motion.rotations)  # (T, J, 4)
-    inverse = quats[:-1] * np.array([-1.0, -1.0, -1.0, 1.0])
-    steps = np.degrees(lengths(canonical_log(quat_multiply(inverse, quats[1:])))).max(axis=1)  # (T - 1,)
+    turns = multiply(-motion.rotations[:-1], motion.rotations[1:])  # (T - 1, J, 3) each frame's step
+    steps = np.degrees(lengths(turns)).max(axis=1)  # (T - 1,) the largest joint's, degrees
     first, later = float(steps[0]), float(steps[1:].max())
     if first < LEADING_POSE_DEG or first < LEADING_POSE_FACTOR * later:
         return None

@@ -17,9 +17,10 @@ log = logging.getLogger(__name__)
 
 def load_motions(clips: Sequence[ClipRef], fps: float | None, up: str | None = None) -> list[Motion]:
     """Read clips, resampled to `fps`; all must share one skeleton. up: how their up axis is read
-    (`ClipRef.read`; None: as `set_read_up` last said). Read in this process: a pool of reading processes
-    saved about 15 s of a 45-minute training, and a Ctrl-C while it ran or shut down could leave the command
-    waiting on it for good (its manager thread joined at exit) or ending killed by the signal."""
+    (`ClipRef.read`; None: as `set_read_up` last said). Read in this process (the whole dataset, 2,902
+    clips, in 30 s): a pool of two reading processes saved at most half of that, of a 45-minute training,
+    and a Ctrl-C while it ran or shut down could leave the command waiting on it for good (its manager
+    thread joined at exit) or ending killed by the signal."""
     up = up or read_up()
     motions = []
     for clip in clips:
