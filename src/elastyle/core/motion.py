@@ -148,10 +148,16 @@ def leading_pose_note(motion: Motion, name: str) -> str | None:
     `LEADING_POSE_FACTOR` times as far as in any later step; None otherwise."""
     if motion.num_frames < 3:
         return None
-    turns = multiply(-motion.rotations[:-1], motion.rotations[1:])  # (T - 1, J, 3) each frame's step
-    steps = np.degrees(lengths(turns)).max(axis=1)  # (T - 1,) the largest joint's, degrees
-    first, later = float(steps[0]), float(steps[1:].max())
-    if first < LEADING_POSE_DEG or first < LEADING_POSE_FACTOR * later:
+
+    def largest_steps(start: int, stop: int) -> FloatArray:
+        """(stop - start,) the largest joint turn (degrees) from each frame in [start, stop) to the next."""
+        turns = multiply(-motion.rotations[start:stop], motion.rotations[start + 1 : stop + 1])  # (n, J, 3)
+        return np.degrees(lengths(turns)).max(axis=1)
+
+    first = float(largest_steps(0, 1)[0])
+    if first < LEADING_POSE_DEG:  # most clips: the later steps need not be read
+        return None
+    if first < LEADING_POSE_FACTOR * float(largest_steps(1, motion.num_frames - 1).max()):
         return None
     return (
         f"note: {name}: its first frame is a pose apart from its motion (a joint turns {first:.0f} degrees from "
