@@ -335,7 +335,10 @@ def transfer(
             else:
                 [coloured_decoded] = _decoded(model, [coloured], grid, content_time, root_out, config)
             coloured_at = frames_of(coloured_decoded, positions)
-        target = keep_target(content_at, styled_at, reference, keep, kept, strength_out, coloured_at, colour)
+        posture = keep_weights(
+            tracks, shares, part_tracks, content.skeleton, grid, content_time, positions, kept, "posture"
+        )  # (N, J)
+        target = keep_target(content_at, styled_at, reference, posture, strength_out, coloured_at, colour)
         motion = blend_by_strength(motion, target, keep)
         if config.cleanup and (coloured_at is not None or np.any(keep[:, automatic_legs] > 0)):
             # where the legs keep the content's stepping, the content's own contacts hold as well, and its

@@ -9,6 +9,9 @@ heading frame turns with the pelvis's yaw (+Z forward).
     travel (3)       pelvis velocity in the heading frame, forward and sideways (legs/s); turning (rad/s)
     each hand (4)    position relative to the pelvis in the heading frame (legs), and speed (legs/s)
     each foot (1)    ankle height above its own ground level (legs): lifted, planted
+    the trunk (3)    the head's place relative to the pelvis in the heading frame less the clip's carriage
+                     (its place over the clip's most upright frames; legs): a lean or a bow away from it (a
+                     stoop held throughout is a manner, not an action)
 
 Left and right keep their own channels, so a mirrored style window is close only where the content's
 sides agree with it.
@@ -21,7 +24,7 @@ import numpy as np
 from elastyle.core.body import find_limbs, heading_yaw, leg_length, pelvis_forward_local, yaw_matrices
 from elastyle.core.ground import GROUND_PERCENTILE, PERCENTILE_METHOD
 from elastyle.core.motion import Motion
-from elastyle.core.parts import body_parts
+from elastyle.core.parts import body_parts, trunk
 from elastyle.core.rotations import lengths
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import frame_steps, smooth
@@ -36,17 +39,28 @@ SMOOTH_S = 0.1  # velocities are low-passed over about this long (sigma 0.4 of i
 def action_width(skeleton: Skeleton) -> int:
     """A, the number of `action_channels` a clip of this skeleton has."""
     limbs = find_limbs(skeleton)
-    return 3 + 4 * len(limbs.hands) + len(limbs.ankles)
+    return 3 + 4 * len(limbs.hands) + len(limbs.ankles) + (3 if trunk_top(skeleton) is not None else 0)
+
+
+def trunk_top(skeleton: Skeleton) -> int | None:
+    """The trunk's joint farthest from the pelvis at rest (the head, on most rigs), whose place says how the
+    upper body leans; None for a skeleton without a trunk (`core.parts.trunk`)."""
+    joints = trunk(skeleton)
+    if not joints:
+        return None
+    rest = skeleton.rest_positions()
+    return int(joints[int(np.argmax(lengths(rest[joints] - rest[skeleton.pelvis])))])
 
 
 def action_channels(motion: Motion, world: tuple[FloatArray, FloatArray] | None = None) -> FloatArray:
     """(T, A) action descriptors of a clip; A = 3 + 4 hands + feet (see the module's table). world: the
     clip's world rotations and positions (`Motion.world`) of at least the pelvis, hands and ankles, when
     already known."""
-    skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
+    skeleton, limbs, top = motion.skeleton, find_limbs(motion.skeleton), trunk_top(motion.skeleton)
     leg = leg_length(skeleton, limbs)  # half the body's height without legs
+    tops = [] if top is None else [top]
     world_rotations, positions = (
-        motion.world([skeleton.pelvis, *limbs.hands, *limbs.ankles]) if world is None else world
+        motion.world([skeleton.pelvis, *limbs.hands, *limbs.ankles, *tops]) if world is None else world
     )
     pelvis = positions[:, skeleton.pelvis]  # (T, 3)
     yaw = heading_yaw(world_rotations[:, skeleton.pelvis], pelvis_forward_local(skeleton))  # (T,)
@@ -64,15 +78,32 @@ def action_channels(motion: Motion, world: tuple[FloatArray, FloatArray] | None 
         heights = positions[:, limbs.ankles, 1]
         ground = np.percentile(heights, GROUND_PERCENTILE, axis=0, method=PERCENTILE_METHOD)
         channels.append((heights - ground) / leg)
+    if top is not None:
+        lean = np.einsum("tij,tj->ti", to_heading, positions[:, top] - pelvis) / leg  # (T, 3) legs
+        channels.append(lean - carriage(lean))
     return smooth(np.concatenate(channels, axis=1), sigma)
+
+
+UPRIGHT_SHARE = 0.1  # a clip's carriage: the head's mean place over its most upright tenth of frames
+
+
+def carriage(lean: FloatArray) -> FloatArray:
+    """(3,) a clip's usual carriage from the head's place relative to the pelvis (T, 3) in the heading
+    frame: its mean over the `UPRIGHT_SHARE` of frames where the head is highest. A stoop held throughout is
+    in it; a bow or a lean is not, however long it lasts (a median would follow a bow held for half the clip)."""
+    count = max(1, int(round(UPRIGHT_SHARE * len(lean))))
+    return lean[np.argsort(lean[:, 1])[-count:]].mean(axis=0)
 
 
 def part_channels(skeleton: Skeleton) -> dict[str, IntArray]:
     """The columns of `action_channels` that say what each body part does: the legs' travel and feet,
-    each arm's hand (position x, y, z, then speed); the spine has none of its own."""
+    each arm's hand (position x, y, z, then speed), the spine's lean (x, y, z)."""
     limbs = find_limbs(skeleton)
     num_hands = len(limbs.hands)
-    columns = {"legs": [0, 1, 2, *range(3 + 4 * num_hands, 3 + 4 * num_hands + len(limbs.ankles))]}
+    feet_end = 3 + 4 * num_hands + len(limbs.ankles)
+    columns = {"legs": [0, 1, 2, *range(3 + 4 * num_hands, feet_end)]}
+    if trunk_top(skeleton) is not None and "spine" in body_parts(skeleton):
+        columns["spine"] = [feet_end, feet_end + 1, feet_end + 2]
     for name, joints in body_parts(skeleton).items():
         for h, hand in enumerate(limbs.hands.tolist()):
             if hand in joints:

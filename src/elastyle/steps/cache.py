@@ -42,8 +42,9 @@ def cache_folder() -> Path:
 # 2: one BLAS thread; 3: action descriptors; 4: their ground by nearest sample; 5: clips at the model's size; 6: the root path
 # smoothed to the clip's ends (`core.smoothing.smooth_path`: the latents near its ends change); 7: clips standing
 # along +Z read turned to +Y up (`core.up`), the reading's --up in the key; 8: a clip read under other joint names
-# mirrored by the model's names (`steps.library`); 9: the clips' reading notes kept, said again on a hit
-CACHE_VERSION = 11
+# mirrored by the model's names (`steps.library`); 9: the clips' reading notes kept, said again on a hit; 11: mirror
+# axes per rig (`core.mirror`); 12: the trunk's lean among the action descriptors
+CACHE_VERSION = 12
 Note = tuple[int, str]  # a logging level and the text said at it
 
 

@@ -147,6 +147,14 @@ class TransferConfig:
         "above it; 1: never",
         low=0.0, high=1.0,
     )  # fmt: skip
+    spine_lean_above: float = option(
+        0.15,
+        "per body part: where the content stands and its head's lean away from its usual carriage (its place "
+        "relative to the pelvis, less that over the clip's most upright tenth) differs over a patch from the "
+        "matched style window's by more than this (leg lengths), the spine keeps the content's action (a bow "
+        "given a wave's style still bows), eased in over 0.15 above it; 9: never",
+        low=0.0, high=9.0,
+    )  # fmt: skip
     keep_part: str = option(
         "",
         "body parts performed as in the content (comma-separated or repeated: legs, spine, left-arm, "
@@ -246,7 +254,7 @@ class TransferConfig:
         patchless = ("placement", "timing", "patch_s", "stretch", "stretch_step_s", "stretch_centre")
         unmatched = (
             "action_weight", "match_step_s", "fallback_below", "keep_action_above", "legs_turning_above",
-            "kept_statistics", "arm_offset_above", "arm_rhythm_above",
+            "kept_statistics", "arm_offset_above", "arm_rhythm_above", "spine_lean_above",
         )  # fmt: skip
         colours = "colours the content's own latents on its own clock, no patches"
         by_method: dict[str, list[tuple[tuple[str, ...], str]]] = {
@@ -273,6 +281,8 @@ class TransferConfig:
             groups.append((("residual_smooth_s",), "--decode plain has no residual to smooth"))
         if not self.cleanup:
             groups.append((("root_follows_legs",), "--no-cleanup: no clean-up, whose root follows the legs"))
+        if "spine" in self.kept_parts:
+            groups.append((("spine_lean_above",), "--keep-part keeps the spine as the content performs it"))
         if {"left-arm", "right-arm"} <= set(self.kept_parts):
             groups.append(
                 (("arm_offset_above", "arm_rhythm_above"), "--keep-part keeps both arms as the content performs them")

@@ -24,12 +24,11 @@ def explain(
 ) -> dict[str, Any]:
     """Per output patch: its style clip (mirrored or not), start (frames at the model's rate, and seconds),
     stretch factor, similarity, times (the output's on the output's clock: the content's with `--timing
-    content`),
-    and how it was used (mode: swap; statistics where the fallback took over; content where the legs and
-    spine keep the content's action; blend between them), with per body part the action mismatch (the
-    legs' turning difference and gait mismatch, each arm's hand offset and rhythm difference too), the share
-    of the content kept and, for the legs, the share of the style's statistics on it; content_time
-    (T_out,) is the content frame of each output frame."""
+    content`), and how it was used (mode: swap; statistics where the fallback took over; content where the
+    legs and spine keep the content's action; blend between them), with per body part the action mismatch
+    (the legs' turning difference and gait mismatch, the spine's lean offset, each arm's hand offset and
+    rhythm difference too), the share of the content kept and, for the legs, the share of the style's
+    statistics on it; content_time (T_out,) is the content frame of each output frame."""
     styles = []
     notes: list[str] = []  # automatic adjustments, as printed
     for track, library in zip(tracks, libraries):

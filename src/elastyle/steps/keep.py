@@ -3,7 +3,8 @@ windows perform another action (docs/method.md, "Per body part").
 
 Per output frame and joint, a share k in [0, 1] of the content's own motion: 1 at the joints of the parts
 `--keep-part` names (the output is then exactly the content there), and each part's `StyleTrack.keep`
-elsewhere (the legs and the spine, where the legs' travel and steps differ from the matched windows').
+elsewhere (the legs and the spine, where the legs' travel and steps differ from the matched windows'; the
+spine also where the head leans otherwise than theirs; each arm).
 Where the spine keeps the content's action it still takes the style's posture: the mean, over the frames
 it keeps within about ten seconds (`POSTURE_WINDOW_S`), of the change the style makes to the model's reading of
 it, scaled by the strength (so strength 0 stays the content). Where the legs keep it because the windows
@@ -29,7 +30,6 @@ from elastyle.steps.timeline import on_output_frames
 from elastyle.steps.track import StyleTrack
 from elastyle.types import FloatArray, IntArray
 
-POSTURE_PARTS = ("spine",)  # parts that keep the content's action with the style's mean posture
 POSTURE_WINDOW_S = 10.0  # the style's posture is a local mean: Gaussian sigma, seconds
 
 
@@ -42,16 +42,18 @@ def keep_weights(
     content_time: FloatArray,
     positions: FloatArray,
     kept: IntArray,
+    field: str = "keep",
 ) -> FloatArray:
     """(N, J) per output frame and joint, 0 to 1: how far the content's own action is kept. 1 at the kept
     joints (K,); elsewhere each part's share from the tracks' `keep` (G,) weighted by their shares (G,), or
     at the joints a part track styles, that track's own; read at the output frames (positions (N,) on the
-    model-rate output timeline whose content times, in content frames, are content_time (T_out,))."""
+    model-rate output timeline whose content times, in content frames, are content_time (T_out,)).
+    field "posture": the tracks' posture weights instead (`keep_target`), 0 at the kept joints."""
     sources = [(np.arange(skeleton.num_joints), list(tracks), list(shares))]
     sources += [(joints, [track], [np.ones_like(grid)]) for joints, track in part_tracks]
-    keep = _per_joint(sources, "keep", skeleton, grid, content_time, positions)
-    keep[:, kept] = 1.0
-    return keep
+    weights = _per_joint(sources, field, skeleton, grid, content_time, positions)
+    weights[:, kept] = 1.0 if field == "keep" else 0.0
+    return weights
 
 
 def statistics_weights(
@@ -104,7 +106,7 @@ def _per_joint(
     content_time: FloatArray,
     positions: FloatArray,
 ) -> FloatArray:
-    """(N, J): a per-part field of the tracks (`keep` or `other_action`, (G,) each) on every joint of its
+    """(N, J): a per-part field of the tracks (`keep`, `other_action` or `posture`, (G,) each) on every joint of its
     part, for each source's joints (J_s,) from its tracks weighted by their shares (G,), read at the
     output frames (positions (N,))."""
     weights = np.zeros((len(positions), skeleton.num_joints))
@@ -124,20 +126,20 @@ def keep_target(
     content: Motion,
     styled: Motion,
     reference: Motion,
-    keep: FloatArray,
-    kept: IntArray,
+    posture: FloatArray,
     strength: FloatArray,
     coloured: Motion | None = None,
     colour: FloatArray | None = None,
 ) -> Motion:
     """What the kept joints become (N frames): the content (read at the output frames), with the style's
-    local mean posture, times the strength (N,), on the `POSTURE_PARTS` joints that keep the content's
-    action automatically, and the style's statistics where `colour` asks.
+    local mean posture, times the strength (N,), on the joints whose parts weigh one (the spine where it
+    keeps the content's action for the legs' sake), and the style's statistics where `colour` asks.
 
     styled, reference: the decoded styled clip and the model's reading of the content (or the content
-    itself) at the same N frames; keep (N, J) from `keep_weights`; kept (K,): joints the user keeps as
-    they are; coloured: the decoded clip of the content's latents coloured with the style's statistics
-    (the report's whitening and colouring), at the same frames; colour (N, J), 0 to 1: the share of its
+    itself) at the same N frames; posture (N, J): each frame's weight in each joint's mean posture
+    (`keep_weights` of the tracks' posture field; 0 at the joints the user keeps as they are); coloured:
+    the decoded clip of the content's latents coloured with the style's statistics (the report's whitening
+    and colouring), at the same frames; colour (N, J), 0 to 1: the share of its
     change to the model's reading (`statistics_weights` times `TransferConfig.kept_statistics`).
     """
     acting = strength > 0  # strength 0 stays the content exactly
@@ -148,16 +150,14 @@ def keep_target(
         change = _change(reference, coloured, joints)  # (N, C, 3)
         weighted = scale * colour[np.ix_(acting, joints)][:, :, None] * change[acting]
         rotations[np.ix_(acting, joints)] = multiply(rotations[np.ix_(acting, joints)], weighted)
-    parts = body_parts(content.skeleton)
-    named = [int(j) for name in POSTURE_PARTS for j in parts.get(name, [])]
-    posture = joint_set(set(named) - set(kept.tolist()))
-    if len(posture):
-        weight = keep[:, posture, None]  # (N, P, 1)
-        change = _change(reference, styled, posture)  # (N, P, 3) the style's change to each posture joint
+    joints = np.flatnonzero(np.any(posture > 0, axis=0))  # (P,)
+    if len(joints):
+        weight = posture[:, joints, None]  # (N, P, 1)
+        change = _change(reference, styled, joints)  # (N, P, 3) the style's change to each posture joint
         sigma = POSTURE_WINDOW_S * content.fps
         mean_change = smooth(weight * change, sigma) / np.maximum(smooth(weight, sigma), 1e-9)  # (N, P, 3)
-        rotations[np.ix_(acting, posture)] = multiply(
-            rotations[np.ix_(acting, posture)], scale * mean_change[acting]
+        rotations[np.ix_(acting, joints)] = multiply(
+            rotations[np.ix_(acting, joints)], scale * mean_change[acting]
         )
     return Motion(content.skeleton, rotations, content.translations, content.fps)
 

@@ -35,12 +35,14 @@ MISMATCH_FLOOR = 0.3  # legs (per second): what a part's mismatch is relative to
 class PartKeeps(NamedTuple):
     """Per body part (`StyleTrack`'s fields of the same names): mismatch, each patch's action mismatch (P,);
     measures, each patch's other measures; keep (G,), the share of the content's own action; other_action
-    (G,), where it keeps it because the windows perform another action."""
+    (G,), where it keeps it because the windows perform another action; posture (G,), where the change the
+    matched windows make to it counts towards the style's mean posture."""
 
     mismatch: dict[str, FloatArray]
     measures: dict[str, dict[str, FloatArray]]
     keep: dict[str, FloatArray]
     other_action: dict[str, FloatArray]
+    posture: dict[str, FloatArray]
 
 
 def part_keeps(
@@ -59,8 +61,12 @@ def part_keeps(
     two half-shifted patch sequences; part_columns: each part's action columns (`steps.action`); on_grid:
     two sequences' per-patch values (P,), (P - 1,) -> (G,) on the grid (G,) as the latents are cross-faded;
     ease: the shares' easing in time, grid steps. Where the legs do another action than the windows (a walk
-    matched against a run or a wave), legs and spine keep the content's action; where an arm's hand is
-    elsewhere or goes back and forth where the window's does not (or the other way round), that arm does."""
+    matched against a run or a wave), legs and spine keep the content's action; where the content stands
+    and its head leans away from its carriage otherwise than the window's (a bow against a standing wave),
+    the spine does;
+    where an arm's hand is elsewhere or goes back and forth where the window's does not (or the other way
+    round), that arm does. The spine's mean posture reads where it keeps the content's action for the legs'
+    sake, not where it leans otherwise (the change there is a bow undone, not a carriage)."""
     patches, shifted = sequences
     mismatch = {
         part: part_mismatch(content_actions, library.actions, patches, patch_frames, columns)
@@ -69,6 +75,8 @@ def part_keeps(
     measures: dict[str, dict[str, FloatArray]] = {}  # per part, each measure's value per patch (P,)
     keep: dict[str, FloatArray] = {}
     other_action: dict[str, FloatArray] = {}
+    posture: dict[str, FloatArray] = {}
+    standing = np.ones_like(grid)  # (G,) where the content's legs stand (throughout without legs)
     if "legs" in mismatch:
         leg_columns = part_columns["legs"]
         shifted_mismatch = part_mismatch(content_actions, library.actions, shifted, patch_frames, leg_columns)
@@ -93,16 +101,30 @@ def part_keeps(
             keep_share(on_grid(*turning), config.legs_turning_above, ease),
         )
         keep = {"legs": share, "spine": share}
+        posture["spine"] = share
         # legs that stand take none of a stepping style's statistics: its legs' mean is a stride's bent knees
         # and lifted heels, not a manner (a raise given a run's statistics stood on tiptoe, knees bent)
         standing = np.interp(
             grid, np.arange(len(content_actions)), standing_legs(content_actions, leg_columns, fps)
         )
-        other_action["legs"] = keep_share(on_grid(*gait), config.keep_action_above, ease) * (
-            1 - np.clip(smooth(standing, ease), 0.0, 1.0)
-        )
+        standing = np.clip(smooth(standing, ease), 0.0, 1.0)  # (G,)
+        other_action["legs"] = keep_share(on_grid(*gait), config.keep_action_above, ease) * (1 - standing)
+    if "spine" in part_columns:
+        lean_columns = part_columns["spine"]
+        lean = [
+            mean_gap(
+                content_actions[:, lean_columns], library.actions[:, lean_columns], sequence, patch_frames
+            )
+            for sequence in (patches, shifted)
+        ]
+        measures["spine"] = {"lean_offset": lean[0]}
+        # only where the content stands: there a lean is an action (a bow, a reach down); a travelling body's
+        # lean is its gait's manner (a youthful run leans 0.19 legs further forward than a normal one)
+        leans = keep_share(on_grid(*lean), config.spine_lean_above, ease) * standing
+        keep["spine"] = np.maximum(keep.get("spine", 0.0), leans)
+        posture["spine"] = posture.get("spine", np.zeros_like(grid)) * (1 - leans)
     for part, columns in part_columns.items():
-        if part == "legs":
+        if part in ("legs", "spine"):
             continue
         content_hand, library_hand = content_actions[:, columns[:3]], library.actions[:, columns[:3]]
         one_clip = np.zeros(1, dtype=np.int64)
@@ -132,7 +154,7 @@ def part_keeps(
             plain, held = keep_share(values, above, ease), keep_share(values, above, ease, held=True)
             shares.append(plain + sways_more * (held - plain))
         keep[part] = np.max([*shares, end_share(grid, ARM_ENDS_PATCHES * patch_frames)], axis=0)
-    return PartKeeps(mismatch, measures, keep, other_action)
+    return PartKeeps(mismatch, measures, keep, other_action, posture)
 
 
 def part_mismatch(

@@ -49,7 +49,9 @@ class StyleTrack(NamedTuple):
     offset and rhythm difference, `steps.arms`); keep: per body part (G,), 0 to 1, the share of the
     content's own action where the matched windows do another; other_action: per body part (G,), 0 to 1,
     where it keeps the content's action because the windows perform another (the legs: travel and steps,
-    not turning), so the style's statistics colour it (`TransferConfig.kept_statistics`)."""
+    not turning), so the style's statistics colour it (`TransferConfig.kept_statistics`); posture: per body
+    part (G,), 0 to 1, the weight of each time in the style's mean posture that part takes where it keeps
+    the content's action (`steps.keep`)."""
 
     latents: FloatArray
     log_rate: FloatArray
@@ -60,6 +62,7 @@ class StyleTrack(NamedTuple):
     measures: dict[str, dict[str, FloatArray]]
     keep: dict[str, FloatArray]
     other_action: dict[str, FloatArray]
+    posture: dict[str, FloatArray]
 
 
 def requested_patch_frames(config: TransferConfig, fps: float) -> int:
@@ -119,7 +122,7 @@ def style_track(
             styled = adain(content_latents, [content_latents], [library.latents])
         unchanged = np.zeros_like(grid)  # the content's own pace
         return StyleTrack(
-            interpolate_rows(styled, grid), unchanged, [], 0, np.ones_like(grid), {}, {}, {}, {}
+            interpolate_rows(styled, grid), unchanged, [], 0, np.ones_like(grid), {}, {}, {}, {}, {}
         )
     wanted = requested_patch_frames(config, fps)
     patch_frames = min(wanted, library.longest_clip)
