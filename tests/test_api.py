@@ -222,6 +222,21 @@ def test_the_explain_record_on_the_content_clock_and_with_its_settings(
     assert any(note.startswith("warning: --patch-s 0.2: windows under 0.5 s") for note in tiny)
 
 
+def test_a_patch_too_short_to_stretch_is_noted(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
+    """A patch of a few frames, or a stretch under a frame, reaches no other whole length: only the patch's
+    own is tried, so the output keeps the content's timing, and a note says so (a probe found it silent)."""
+    tiny = transfer(content, style_clip, model=model, patch_s=0.001)
+    assert any(
+        note.startswith("note: --patch-s 0.001: patches of 4 frames") and "keeps the content's timing" in note
+        for note in tiny.explain["notes"]
+    )
+    assert tiny.motion.num_frames == content.num_frames
+    slight = transfer(content, style_clip, model=model, stretch=0.001).explain["notes"]
+    assert any(note.startswith("note: --stretch has no effect here (a patch of 30 frames") for note in slight)
+    default = transfer(content, style_clip, model=model).explain["notes"]
+    assert not any("whole length" in note or "no other length" in note for note in default)
+
+
 def test_options_the_method_does_not_read_are_noted(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]
     """Options set that change nothing for the method (a timing or placement for the statistics methods, a
     stretch for rigid, a stretch step wider than the range) are noted; the default options are not."""

@@ -98,10 +98,12 @@ def test_strength_zero_writes_the_contents_own_numbers(
     np.testing.assert_array_equal(numbers(out.read_text()), numbers(content))
 
 
-def test_transfer_writes_bvh_and_explain(walk: str, style: str, tmp_path: Path) -> None:
+def test_transfer_writes_bvh_and_explain(walk: str, style: str, tmp_path: Path, caplog) -> None:  # type: ignore[no-untyped-def]
     out = tmp_path / "tired.bvh"
     explain = tmp_path / "tired.json"
-    assert main(["transfer", walk, "--style", style, "-o", str(out), "--explain", str(explain)]) == 0
+    with caplog.at_level("INFO", logger="elastyle"):
+        assert main(["transfer", walk, "--style", style, "-o", str(out), "--explain", str(explain)]) == 0
+    assert f"wrote {explain} (the explain record)" in caplog.text  # said, as the clip is
     assert out.read_text().startswith("HIERARCHY")
     record = json.loads(explain.read_text())
     assert record["method"] == "elastic" and record["styles"][0]["patches"]
@@ -210,6 +212,9 @@ def test_off_switches_say_they_turn_off(capsys: pytest.CaptureFixture[str]) -> N
     text = " ".join(capsys.readouterr().out.split())
     for flag in ("--no-mirror-style", "--no-cleanup"):
         assert f"{flag} turn off what is on by default:" in text
+    # each number's allowed range beside its default, as the README says (the checks enforced them unsaid)
+    assert "--patch-s PATCH_S patch length, seconds (default: 1; allowed (0, 60])" in text
+    assert "(default: 0.25; allowed [0, 1))" in text
 
 
 def test_eval_refuses_clips_of_another_skeleton(walk: str, style: str, tmp_path: Path) -> None:

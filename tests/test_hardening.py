@@ -284,6 +284,14 @@ def test_a_shortened_patch_is_noted_and_recorded(tmp_path: Path, dataset_clips: 
             result.stderr,
         )
         assert "give a style clip at least as long as --patch-s" in result.stderr
+    # a long patch asked of a style clip a little longer than a default one: a note, not the warning that its
+    # windows are short (it said so of 13 s windows under --patch-s 60)
+    result = _cli("transfer", walk.name, "--style", str(style_of(40)), "-o", str(tmp_path / "l.bvh"), "--patch-s",
+                  "60", "--force")  # fmt: skip
+    assert result.returncode == 0 and re.search(
+        r"note: \S*style_40.bvh: the style clips are at most 1.33 s", result.stderr
+    )
+    assert "windows this short" not in result.stderr, result.stderr
 
 
 @pytest.mark.slow
@@ -370,3 +378,15 @@ def test_a_damaged_cache_entry_is_encoded_again(
     assert again.returncode == 0, again.stderr
     assert (tmp_path / "a.bvh").read_bytes() == (tmp_path / "b.bvh").read_bytes()
     assert entry.read_bytes() == whole  # the entry written again
+
+
+def test_an_unreadable_size_limit_is_said_once(tmp_path: Path) -> None:
+    """An ELASTYLE_MAX_INPUT_MB that is no number of megabytes: one warning for the command, however many
+    files it reads (it came once per file read, 5 times for one transfer), and the default limit is used."""
+    clips = []
+    for name in ("a", "b", "c"):
+        clips.append(tmp_path / f"{name}.bvh")
+        clips[-1].write_text(GOOD)
+    result = _cli("info", *map(str, clips), env={"ELASTYLE_MAX_INPUT_MB": "abc"})
+    assert result.returncode == 0, result.stderr
+    assert result.stderr.count("ELASTYLE_MAX_INPUT_MB=abc is not a number of megabytes") == 1, result.stderr

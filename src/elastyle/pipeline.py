@@ -66,7 +66,7 @@ from elastyle.steps.keep import fallback_weights, keep_target, keep_weights, sta
 from elastyle.steps.library import StyleLibrary, as_library
 from elastyle.steps.schedule import Schedule
 from elastyle.steps.timeline import content_grid, mix_tracks, on_output_frames, output_content_times
-from elastyle.steps.track import requested_patch_frames, style_track
+from elastyle.steps.track import MIN_PATCH_FRAMES, requested_patch_frames, style_track
 from elastyle.types import FloatArray
 
 StyleInput = Motion | Sequence[Motion] | StyleLibrary
@@ -164,6 +164,16 @@ def transfer(
             f"warning: --patch-s {config.patch_s:g}: windows under {SHORT_PATCH_S:g} s hold less than a stride, so "
             "the output jitters (a walk at 0.2 s: 2.2 times the content's jerk, 1.5 at the default 1 s)"
         ), once=("patch_s", config.patch_s))  # fmt: skip
+        if (
+            config.method == "elastic"
+            and config.stretch > 0
+            and len(config.source_lengths(patch_frames, fps)) == 1
+        ):
+            _say(notes, (
+                f"note: --patch-s {config.patch_s:g}: patches of {patch_frames} frames at the model's {fps:g} fps (at "
+                f"least {MIN_PATCH_FRAMES}) reach no other whole length within --stretch, so each is read at its own "
+                "and the output keeps the content's timing"
+            ), once=("patch_s frames", config.patch_s))  # fmt: skip
     if second_style is not None:
         if change.times_s[0] >= content.duration_s and change.values[0] == 0:
             _say(notes, (

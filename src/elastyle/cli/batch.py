@@ -109,9 +109,9 @@ def _write(job: Job, target: Path, output: bytes, explain: str | None) -> None:
     if job.explain and explain is not None:
         if explain_folder(job.explain):  # made with the first record (its parent was checked beforehand)
             Path(job.explain).mkdir(exist_ok=True)
-        write_text_atomic(
-            explain_path(job.explain, target), explain, force=job.force, inputs=(*job.inputs, str(target))
-        )
+        record = explain_path(job.explain, target)
+        write_text_atomic(record, explain, force=job.force, inputs=(*job.inputs, str(target)))
+        log.info("wrote %s (the explain record)", record)
 
 
 def transfer_task(job: Job, content_spec: str, target: Path) -> Output | str:

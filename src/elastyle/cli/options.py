@@ -12,6 +12,7 @@ from dataclasses import MISSING, Field, fields
 from typing import Any
 
 from elastyle.errors import ConfigError
+from elastyle.steps.config import range_text
 
 
 def _flag(spec: Field[Any]) -> str:
@@ -36,9 +37,10 @@ def add_config_flags(parser: argparse.ArgumentParser, config_type: type) -> None
         choices = spec.metadata.get("choices")
         kind = str if spec.metadata.get("text") or not isinstance(default, (int, float)) else type(default)
         listed = bool(spec.metadata.get("listed"))  # repeats gathered, joined by `config_from_args`
+        allowed = f"; allowed {range_text(spec.metadata)}" if spec.metadata.get("low") is not None else ""
         parser.add_argument(
             f"--{flag}", dest=spec.name, action="append" if listed else "store", type=kind, choices=choices,
-            default=None if listed else default, help=f"{help_text} (default: {_shown(default)})",
+            default=None if listed else default, help=f"{help_text} (default: {_shown(default)}{allowed})",
         )  # fmt: skip
 
 

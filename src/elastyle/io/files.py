@@ -18,23 +18,28 @@ MAX_INPUT_VARIABLE = "ELASTYLE_MAX_INPUT_MB"
 DEFAULT_MAX_INPUT_MB = 512.0  # about an hour of 120 fps capture of a 60-joint skeleton
 
 
+_WARNED: set[tuple[str, str]] = set()  # (variable, value) pairs already warned about in this process
+
+
 def megabytes_from_environment(variable: str, default_mb: float) -> int:
     """A size limit in bytes from an environment variable in megabytes (the default when unset; a warning
-    naming it where it is not a number of megabytes, 0 or more)."""
+    naming it, once per process, where it is not a number of megabytes, 0 or more)."""
     text = os.environ.get(variable, "")
     try:
         megabytes = float(text) if text else default_mb
     except ValueError:
         megabytes = float("nan")
-    if not megabytes >= 0 or megabytes == float("inf"):
+    if megabytes >= 0 and megabytes != float("inf"):
+        return int(megabytes * 2**20)
+    if (variable, text) not in _WARNED:  # read once per file: said once
+        _WARNED.add((variable, text))
         log.warning(
             "warning: %s=%s is not a number of megabytes (0 or more): %g MB is used",
             variable,
             text,
             default_mb,
         )
-        megabytes = default_mb
-    return int(megabytes * 2**20)
+    return int(default_mb * 2**20)
 
 
 def max_input_bytes() -> int:

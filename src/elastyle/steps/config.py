@@ -57,7 +57,9 @@ class TransferConfig:
     )
     patch_s: float = option(1.0, "patch length, seconds", low=0.0, high=60.0, low_open=True)
     stretch: float = option(
-        0.25, "a content patch may be read from (1 - stretch) to (1 + stretch) times its length",
+        0.25,
+        "a content patch may be read from (1 - stretch) to (1 + stretch) times its length (each end rounded to "
+        "whole frames, so a patch of a few frames reaches a little further)",
         low=0.0, high=1.0, high_open=True,
     )  # fmt: skip
     stretch_centre: str = option(
@@ -247,7 +249,7 @@ class TransferConfig:
     def unread_options(self, patch_frames: int, fps: float) -> list[tuple[list[str], str]]:
         """The options set away from their defaults that change nothing here (as flags), in groups, each with
         why: the statistics methods (wct, adain) match no patches on the content's own clock, rigid tries no
-        stretch, a stretch step wider than the stretch range tries only the patch's own length, the fixed
+        stretch, a stretch (or its step) that reaches no other whole length tries only the patch's own, the fixed
         placement keeps the content's clock, plain decoding has no residual, no clean-up has no root to
         move, and kept arms take no windows to compare."""
         default = TransferConfig()
@@ -263,16 +265,12 @@ class TransferConfig:
             "rigid": [(("stretch", "stretch_step_s", "stretch_centre"), "--method rigid reads every patch at its own length")],
         }  # fmt: skip
         groups = list(by_method.get(self.method, []))
-        every_frame = replace(self, stretch_step_s=0.0).source_lengths(patch_frames, fps)
-        chosen_step = self.stretch_step_s != default.stretch_step_s
-        if (
-            self.method == "elastic"
-            and chosen_step
-            and len(self.source_lengths(patch_frames, fps)) == 1 < len(every_frame)
-        ):
-            groups.append(
-                (("stretch_step_s",), "a stretch step wider than the stretch range tries only the patch's own length")
-            )  # fmt: skip
+        if self.method == "elastic" and self.stretch > 0 and len(self.source_lengths(patch_frames, fps)) == 1:
+            step = max(1, int(round(self.stretch_step_s * fps)))
+            groups.append((("stretch", "stretch_step_s"), (
+                f"a patch of {patch_frames} frames at {fps:g} fps stretched by {self.stretch:g} reaches no other "
+                f"length {step} frame(s) apart, so only its own is tried and the output keeps the content's timing"
+            )))  # fmt: skip
         if self.method in ("elastic", "rigid") and self.placement == "fixed":
             groups.append(
                 (("stretch_centre", "timing"), "--placement fixed keeps the content's clock, searching no tempo")
@@ -307,7 +305,7 @@ class TransferConfig:
         return np.array(sorted(lengths))
 
 
-def _range_text(metadata: Any) -> str:
+def range_text(metadata: Any) -> str:
     """A field's allowed range as an interval, '[0, 1]' or '(0, 60]'."""
     left = "(" if metadata["low_open"] else "["
     right = ")" if metadata["high_open"] else "]"
@@ -321,7 +319,7 @@ def _field_list() -> str:
         meta = spec.metadata
         allowed = f" ({', '.join(meta['choices'])})" if meta.get("choices") else ""
         if meta.get("low") is not None:
-            allowed = f" {_range_text(meta)}"
+            allowed = f" {range_text(meta)}"
         lines.append(f"    {spec.name} = {spec.default!r}{allowed}: {meta['help']}")
     return "\n".join(lines)
 
@@ -344,4 +342,4 @@ def _check(name: str, value: Any, metadata: Any) -> None:
     below = value <= low if metadata["low_open"] else value < low
     above = value >= high if metadata["high_open"] else value > high
     if below or above:
-        raise ConfigError(f"{name}: must lie in {_range_text(metadata)}, got {value:g}", name)
+        raise ConfigError(f"{name}: must lie in {range_text(metadata)}, got {value:g}", name)

@@ -74,8 +74,8 @@ def patch_notes(
     library: StyleLibrary, patch_frames: int, config: TransferConfig, fps: float
 ) -> list[tuple[int, str]]:
     """The notes (logging level, text) on a library's patches of `patch_frames`: patches shortened to its
-    longest clip (a warning below `SHORT_PATCH_SHARE` of --patch-s, where the output may step or slide), and
-    clips shorter than a patch, none of whose windows can be matched."""
+    longest clip (a warning below `SHORT_PATCH_SHARE` of --patch-s and below a default patch, where the
+    output may step or slide), and clips shorter than a patch, none of whose windows can be matched."""
     notes = []
     names = ", ".join(dict.fromkeys(library.names))
     if patch_frames < requested_patch_frames(config, fps):
@@ -83,7 +83,9 @@ def patch_notes(
             f"{names}: the style clips are at most {patch_frames / fps:.2f} s long, so patches are "
             f"{patch_frames / fps:.2f} s instead of --patch-s {config.patch_s:g}"
         )
-        if patch_frames < SHORT_PATCH_SHARE * requested_patch_frames(config, fps):
+        # short of what was asked, and short of a default patch (13 s of a 60 s one are no short window)
+        default_frames = requested_patch_frames(TransferConfig(), fps)
+        if patch_frames < min(SHORT_PATCH_SHARE * requested_patch_frames(config, fps), default_frames):
             notes.append((logging.WARNING, (
                 f"warning: {shortened}; windows this short carry little of a style's manner and the output may "
                 "step or slide oddly: give a style clip at least as long as --patch-s"
