@@ -566,3 +566,108 @@ def test_a_bow_given_a_waves_style_still_bows(model, dataset_clips: list[ClipRef
     # the option that turns it off: the wave's upright spine
     upright = transfer(bow, style, model=model, spine_lean_above=9.0).motion
     assert _trunk_tilt_degrees(upright).max() < 10.0
+
+
+def _crouched(motion: Motion, seconds: float, depth_cm: float) -> Motion:
+    """The first frame of `motion` held for `seconds`, its pelvis lowered by `depth_cm` from 1 s on, held,
+    and raised again by 1 s before the end, the feet kept where they stand (two-joint leg IK): a crouch,
+    which no dataset clip performs."""
+    from elastyle.steps.leg_ik import leg_ik
+
+    frames = int(seconds * motion.fps)
+    rotations = np.repeat(motion.rotations[:1], frames, axis=0)
+    translations = np.repeat(motion.translations[:1], frames, axis=0)
+    standing = Motion(motion.skeleton, rotations, translations, motion.fps).positions()
+    time = np.arange(frames) / motion.fps
+    ramp = np.clip(np.minimum(time - 1.0, seconds - 1.0 - time) / 0.6, 0.0, 1.0)
+    lowered = translations.copy()
+    lowered[:, motion.skeleton.pelvis, 1] -= depth_cm * (0.5 - 0.5 * np.cos(np.pi * ramp))
+    low = Motion(motion.skeleton, rotations, lowered, motion.fps)
+    limbs = find_limbs(motion.skeleton)
+    chains = np.stack([limbs.hips, motion.skeleton.parents[limbs.ankles], limbs.ankles], axis=1)  # (F, 3)
+    world_rotations, positions = low.world()
+    legs = leg_ik(
+        world_rotations, positions, motion.skeleton.parents[limbs.hips], chains, standing[:, limbs.ankles]
+    )  # (T, F, 3, 3) exp maps of hip, knee and ankle
+    bent = rotations.copy()
+    for foot, chain in enumerate(chains):
+        bent[:, chain] = legs[:, foot]
+    return Motion(motion.skeleton, bent, lowered, motion.fps)
+
+
+def test_a_crouch_given_a_waves_style_still_crouches(model, dataset_clips: list[ClipRef]) -> None:  # type: ignore[no-untyped-def]
+    """A crouch (a held-out take's standing pose, its pelvis lowered 35 cm for about two seconds, the feet
+    where they stood) given a one-handed wave's style: in place, the legs keep the content's action where
+    the pelvis sits lower below its clip's carriage than the matched windows'. Before, the legs stood as
+    the windows did and the swap stood the body up: the pelvis never came 2 cm below its standing height."""
+    standing = clip_named(dataset_clips, "dataset-2_wave-right-hand_normal_010").read()[0]
+    crouch = _crouched(standing, 5.0, 35.0)
+    style = clip_named(dataset_clips, "dataset-2_wave-right-hand_feminine_005").read()[0]
+
+    def pelvis_heights(motion: Motion) -> FloatArray:
+        return motion.positions()[:, motion.skeleton.pelvis, 1]
+
+    content = pelvis_heights(crouch)
+    assert content.max() - content.min() == pytest.approx(35.0, abs=0.1)
+    result = transfer(crouch, style, model=model)
+    heights = pelvis_heights(result.motion)
+    assert heights.min() < content.min() + 5.0  # 57 cm, as the content
+    low = np.sum(heights < content.max() - 15.0)
+    assert low > 0.9 * np.sum(content < content.max() - 15.0)  # 73 frames of 73
+    legs = [p["parts"]["legs"] for p in result.explain["styles"][0]["patches"]]
+    assert max(part["place_offset"] for part in legs) > 0.35 and max(p["content_share"] for p in legs) > 0.9
+    upright = pelvis_heights(transfer(crouch, style, model=model, legs_place_above=9.0).motion)
+    assert upright.min() > content.max() - 5.0
+
+
+def _kicked(motion: Motion, seconds: float, degrees: float) -> Motion:
+    """The first frame of `motion` held for `seconds`, its right thigh swung forward by `degrees` and back
+    twice, 0.8 s each, at 1.5 s and 3 s: kicks, which no dataset clip performs."""
+    from elastyle.core.rotations import multiply
+
+    frames = int(seconds * motion.fps)
+    held = Motion(
+        motion.skeleton,
+        np.repeat(motion.rotations[:1], frames, axis=0),
+        np.repeat(motion.translations[:1], frames, axis=0),
+        motion.fps,
+    )
+    world_rotations, positions = held.world()
+    skeleton = motion.skeleton
+    forward = positions[0, skeleton.index("Toes_R")] - positions[0, skeleton.index("Foot_R")]
+    forward = np.array([forward[0], 0.0, forward[2]]) / np.linalg.norm([forward[0], forward[2]])
+    lateral = np.cross([0.0, 1.0, 0.0], forward)
+    time = np.arange(frames) / motion.fps
+    swing = sum(
+        0.5 - 0.5 * np.cos(np.pi * np.clip(1 - np.abs(time - at) / 0.4, 0.0, 1.0)) for at in (1.5, 3.0)
+    )
+    thigh = skeleton.index("UpperLeg_R")
+    axis = np.einsum("tji,j->ti", world_rotations[:, skeleton.parents[thigh]], lateral)
+    rotations = held.rotations.copy()  # the thigh turned about the lateral axis, forward for a negative angle
+    rotations[:, thigh] = multiply(axis * (-np.radians(degrees) * swing)[:, None], rotations[:, thigh])
+    return Motion(skeleton, rotations, held.translations, motion.fps)
+
+
+@pytest.mark.parametrize("style_name", ["wave-right-hand_feminine_005", "walk_elderly_015"])
+def test_a_kick_keeps_its_height_under_any_style(
+    model, dataset_clips: list[ClipRef], style_name: str
+) -> None:  # type: ignore[no-untyped-def]
+    """Two kicks (a held-out take's standing pose, the right thigh swung 75 degrees forward, the ankle 51 cm
+    up) given a standing wave's or a walk's style. Before: under the wave's, the legs stood as its windows
+    do (a foot's height is one column of the legs' many, a kick lasts less than a patch) and the kicks
+    vanished (the ankle 2 cm up); under the walk's, the legs kept the kicks but took the walk's statistics,
+    which halved them (24 cm). Now the legs keep the kicks in place, where their largest gap in the feet's
+    and pelvis's heights over a patch tells them apart, and legs that do not travel take no statistics."""
+    standing = clip_named(dataset_clips, "dataset-2_wave-right-hand_normal_010").read()[0]
+    kick = _kicked(standing, 5.0, 75.0)
+    style = clip_named(dataset_clips, f"dataset-2_{style_name}").read()[0]
+
+    def lift(motion: Motion) -> FloatArray:
+        ankle = motion.positions()[:, motion.skeleton.index("Foot_R"), 1]
+        return ankle - np.percentile(ankle, 10)
+
+    content = lift(kick)
+    assert content.max() > 45.0
+    output = lift(transfer(kick, style, model=model).motion)
+    assert output.max() > 0.9 * content.max()
+    assert np.sum(output > 20.0) >= 0.9 * np.sum(content > 20.0)  # 18 frames of 18

@@ -9,6 +9,8 @@ heading frame turns with the pelvis's yaw (+Z forward).
     travel (3)       pelvis velocity in the heading frame, forward and sideways (legs/s); turning (rad/s)
     each hand (4)    position relative to the pelvis in the heading frame (legs), and speed (legs/s)
     each foot (1)    ankle height above its own ground level (legs): lifted, planted
+    the pelvis (1)   its height less the clip's carriage (its mean over the clip's highest frames; legs): a
+                     crouch, a squat or a jump (with feet only)
     the trunk (3)    the head's place relative to the pelvis in the heading frame less the clip's carriage
                      (its place over the clip's most upright frames; legs): a lean or a bow away from it (a
                      stoop held throughout is a manner, not an action)
@@ -39,7 +41,8 @@ SMOOTH_S = 0.1  # velocities are low-passed over about this long (sigma 0.4 of i
 def action_width(skeleton: Skeleton) -> int:
     """A, the number of `action_channels` a clip of this skeleton has."""
     limbs = find_limbs(skeleton)
-    return 3 + 4 * len(limbs.hands) + len(limbs.ankles) + (3 if trunk_top(skeleton) is not None else 0)
+    feet = len(limbs.ankles) + (1 if len(limbs.ankles) else 0)  # each foot's height, the pelvis's
+    return 3 + 4 * len(limbs.hands) + feet + (3 if trunk_top(skeleton) is not None else 0)
 
 
 def trunk_top(skeleton: Skeleton) -> int | None:
@@ -53,7 +56,7 @@ def trunk_top(skeleton: Skeleton) -> int | None:
 
 
 def action_channels(motion: Motion, world: tuple[FloatArray, FloatArray] | None = None) -> FloatArray:
-    """(T, A) action descriptors of a clip; A = 3 + 4 hands + feet (see the module's table). world: the
+    """(T, A) action descriptors of a clip (`action_width`; see the module's table). world: the
     clip's world rotations and positions (`Motion.world`) of at least the pelvis, hands and ankles, when
     already known."""
     skeleton, limbs, top = motion.skeleton, find_limbs(motion.skeleton), trunk_top(motion.skeleton)
@@ -78,32 +81,36 @@ def action_channels(motion: Motion, world: tuple[FloatArray, FloatArray] | None 
         heights = positions[:, limbs.ankles, 1]
         ground = np.percentile(heights, GROUND_PERCENTILE, axis=0, method=PERCENTILE_METHOD)
         channels.append((heights - ground) / leg)
+        height = pelvis[:, 1:2] / leg  # (T, 1)
+        channels.append(height - carriage(height, height[:, 0]))
     if top is not None:
         lean = np.einsum("tij,tj->ti", to_heading, positions[:, top] - pelvis) / leg  # (T, 3) legs
-        channels.append(lean - carriage(lean))
+        channels.append(lean - carriage(lean, lean[:, 1]))
     return smooth(np.concatenate(channels, axis=1), sigma)
 
 
-UPRIGHT_SHARE = 0.1  # a clip's carriage: the head's mean place over its most upright tenth of frames
+UPRIGHT_SHARE = 0.1  # a clip's carriage: its mean over its most upright tenth of frames
 
 
-def carriage(lean: FloatArray) -> FloatArray:
-    """(3,) a clip's usual carriage from the head's place relative to the pelvis (T, 3) in the heading
-    frame: its mean over the `UPRIGHT_SHARE` of frames where the head is highest. A stoop held throughout is
-    in it; a bow or a lean is not, however long it lasts (a median would follow a bow held for half the clip)."""
-    count = max(1, int(round(UPRIGHT_SHARE * len(lean))))
-    return lean[np.argsort(lean[:, 1])[-count:]].mean(axis=0)
+def carriage(values: FloatArray, height: FloatArray) -> FloatArray:
+    """(K,) a clip's usual carriage of per-frame values (T, K) (the pelvis's height; the head's place relative
+    to the pelvis): their mean over the `UPRIGHT_SHARE` of frames where `height` (T,) is highest. A stoop or
+    bent knees held throughout are in it; a bow or a crouch is not, however long it lasts (a median would
+    follow one held for half the clip)."""
+    count = max(1, int(round(UPRIGHT_SHARE * len(values))))
+    return values[np.argsort(height)[-count:]].mean(axis=0)
 
 
 def part_channels(skeleton: Skeleton) -> dict[str, IntArray]:
-    """The columns of `action_channels` that say what each body part does: the legs' travel and feet,
-    each arm's hand (position x, y, z, then speed), the spine's lean (x, y, z)."""
+    """The columns of `action_channels` that say what each body part does: the legs' travel and turning, then
+    each foot's height; each arm's hand (position x, y, z, then speed); the spine's lean (x, y, z)."""
     limbs = find_limbs(skeleton)
     num_hands = len(limbs.hands)
     feet_end = 3 + 4 * num_hands + len(limbs.ankles)
     columns = {"legs": [0, 1, 2, *range(3 + 4 * num_hands, feet_end)]}
     if trunk_top(skeleton) is not None and "spine" in body_parts(skeleton):
-        columns["spine"] = [feet_end, feet_end + 1, feet_end + 2]
+        lean = feet_end + (1 if len(limbs.ankles) else 0)  # after the pelvis's height
+        columns["spine"] = [lean, lean + 1, lean + 2]
     for name, joints in body_parts(skeleton).items():
         for h, hand in enumerate(limbs.hands.tolist()):
             if hand in joints:
@@ -133,6 +140,21 @@ def still_frames(actions: FloatArray, skeleton: Skeleton, fps: float) -> BoolArr
     hand_speeds = actions[:, 3 + 3 * num_hands : 3 + 4 * num_hands]  # (T, H) legs/s
     legs = part_channels(skeleton)["legs"]
     return standing_legs(actions, legs, fps) & ~np.any(hand_speeds > STILL_LEGS_S, axis=1)
+
+
+def place_columns(leg_columns: IntArray) -> IntArray:
+    """The columns of `action_channels` that say where the legs are, from the legs' (`part_channels`): each
+    foot's height and the pelvis's, which follows them; none without feet. The pelvis's height is no part
+    of the legs' mismatch: a column that agrees in every gait diluted it (a walk given a run's style, its
+    legs' mismatch near the threshold, took the run's legs)."""
+    feet = leg_columns[3:]
+    return np.append(feet, feet[-1] + 1) if len(feet) else feet
+
+
+def travelling_legs(actions: FloatArray, leg_columns: IntArray) -> BoolArray:
+    """(T,) the frames of `action_channels` (T, A) where the pelvis travels faster than `STILL_LEGS_S`;
+    leg_columns: the legs' columns (`part_channels`: travel first)."""
+    return lengths(actions[:, leg_columns[:2]]) > STILL_LEGS_S
 
 
 def standing_legs(actions: FloatArray, leg_columns: IntArray, fps: float) -> BoolArray:

@@ -43,8 +43,8 @@ def cache_folder() -> Path:
 # smoothed to the clip's ends (`core.smoothing.smooth_path`: the latents near its ends change); 7: clips standing
 # along +Z read turned to +Y up (`core.up`), the reading's --up in the key; 8: a clip read under other joint names
 # mirrored by the model's names (`steps.library`); 9: the clips' reading notes kept, said again on a hit; 11: mirror
-# axes per rig (`core.mirror`); 12: the trunk's lean among the action descriptors
-CACHE_VERSION = 12
+# axes per rig (`core.mirror`); 12: the trunk's lean among the action descriptors; 13: the pelvis's height
+CACHE_VERSION = 13
 Note = tuple[int, str]  # a logging level and the text said at it
 
 

@@ -126,6 +126,14 @@ class TransferConfig:
         "pace, eased in over 0.15 above it (a turning walk given a straight walk's style still turns); 9: never",
         low=0.0, high=9.0,
     )  # fmt: skip
+    legs_place_above: float = option(
+        0.12,
+        "per body part: where the content does not travel and its feet's and pelvis's heights (less their "
+        "mean over the clip's highest tenth) differ over a patch from the matched style window's by more than "
+        "this (leg lengths), the legs and spine keep the content's action (a kick or a crouch given a standing "
+        "clip's style still kicks or crouches), eased in over 0.15 above it; 9: never",
+        low=0.0, high=9.0,
+    )  # fmt: skip
     kept_statistics: float = option(
         0.45,
         "where the legs keep the content's action because the matched style windows perform another (their "
@@ -256,6 +264,7 @@ class TransferConfig:
         patchless = ("placement", "timing", "patch_s", "stretch", "stretch_step_s", "stretch_centre")
         unmatched = (
             "action_weight", "match_step_s", "fallback_below", "keep_action_above", "legs_turning_above",
+            "legs_place_above",
             "kept_statistics", "arm_offset_above", "arm_rhythm_above", "spine_lean_above",
         )  # fmt: skip
         colours = "colours the content's own latents on its own clock, no patches"

@@ -26,8 +26,8 @@ def explain(
     stretch factor, similarity, times (the output's on the output's clock: the content's with `--timing
     content`), and how it was used (mode: swap; statistics where the fallback took over; content where the
     legs and spine keep the content's action; blend between them), with per body part the action mismatch
-    (the legs' turning difference and gait mismatch, the spine's lean offset, each arm's hand offset and
-    rhythm difference too), the share of the content kept and, for the legs, the share of the style's
+    (the legs' turning difference, gait mismatch and place offset, the spine's lean offset, each arm's hand
+    offset and rhythm difference too), the share of the content kept and, for the legs, the share of the style's
     statistics on it; content_time (T_out,) is the content frame of each output frame."""
     styles = []
     notes: list[str] = []  # automatic adjustments, as printed

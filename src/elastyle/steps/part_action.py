@@ -16,7 +16,13 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from elastyle.core.smoothing import smooth, smoothstep
-from elastyle.steps.action import TURNING_COLUMN, standing_legs, sustained_turning
+from elastyle.steps.action import (
+    TURNING_COLUMN,
+    place_columns,
+    standing_legs,
+    sustained_turning,
+    travelling_legs,
+)
 from elastyle.steps.arms import arm_mismatch, back_and_forth, steady_rhythm
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.library import StyleLibrary
@@ -61,9 +67,10 @@ def part_keeps(
     two half-shifted patch sequences; part_columns: each part's action columns (`steps.action`); on_grid:
     two sequences' per-patch values (P,), (P - 1,) -> (G,) on the grid (G,) as the latents are cross-faded;
     ease: the shares' easing in time, grid steps. Where the legs do another action than the windows (a walk
-    matched against a run or a wave), legs and spine keep the content's action; where the content stands
-    and its head leans away from its carriage otherwise than the window's (a bow against a standing wave),
-    the spine does;
+    matched against a run or a wave, in place a kick or a crouch against a stand), legs and spine keep the
+    content's action;
+    where the content stands and its head leans away from its carriage otherwise than the window's (a bow
+    against a standing wave), the spine does;
     where an arm's hand is elsewhere or goes back and forth where the window's does not (or the other way
     round), that arm does. The spine's mean posture reads where it keeps the content's action for the legs'
     sake, not where it leans otherwise (the change there is a bow undone, not a carriage)."""
@@ -96,19 +103,33 @@ def part_keeps(
             for sequence in (patches, shifted)
         ]  # fmt: skip
         measures["legs"] = {"turning_difference": turning[0], "gait_mismatch": gait[0]}
-        share = np.maximum(
+        frames = np.arange(len(content_actions))
+        standing = np.interp(grid, frames, standing_legs(content_actions, leg_columns, fps))
+        standing = np.clip(smooth(standing, ease), 0.0, 1.0)  # (G,)
+        travelling = np.interp(grid, frames, travelling_legs(content_actions, leg_columns))
+        travelling = np.clip(smooth(travelling, ease), 0.0, 1.0)  # (G,)
+        shares = [
             keep_share(on_grid(mismatch["legs"], shifted_mismatch), config.keep_action_above, ease),
             keep_share(on_grid(*turning), config.legs_turning_above, ease),
-        )
+        ]
+        heights = place_columns(leg_columns)  # each foot's height, the pelvis's
+        if len(heights):
+            # in place, where the feet and the pelvis are (a kick, a crouch against standing windows): a few
+            # columns among the legs' many, they hardly moved their mismatch; a travelling body's are its gait's
+            place = [
+                _largest_gap(content_actions, library.actions, sequence, patch_frames, heights)
+                for sequence in (patches, shifted)
+            ]
+            measures["legs"]["place_offset"] = place[0]
+            in_place = keep_share(on_grid(*place), config.legs_place_above, ease, held=True)
+            shares.append(in_place * (1 - travelling))
+        share = np.max(shares, axis=0)
         keep = {"legs": share, "spine": share}
         posture["spine"] = share
-        # legs that stand take none of a stepping style's statistics: its legs' mean is a stride's bent knees
-        # and lifted heels, not a manner (a raise given a run's statistics stood on tiptoe, knees bent)
-        standing = np.interp(
-            grid, np.arange(len(content_actions)), standing_legs(content_actions, leg_columns, fps)
-        )
-        standing = np.clip(smooth(standing, ease), 0.0, 1.0)  # (G,)
-        other_action["legs"] = keep_share(on_grid(*gait), config.keep_action_above, ease) * (1 - standing)
+        # legs that do not travel take none of a stepping style's statistics: its legs' mean is a stride's
+        # bent knees and lifted heels, not a manner (a raise given a run's statistics stood on tiptoe, knees
+        # bent; a kick given a walk's rose half as high)
+        other_action["legs"] = keep_share(on_grid(*gait), config.keep_action_above, ease) * travelling
     if "spine" in part_columns:
         lean_columns = part_columns["spine"]
         lean = [
@@ -173,6 +194,20 @@ def part_mismatch(
     difference = np.sqrt(np.mean((content - style) ** 2, axis=(1, 2)))
     size = np.sqrt(np.mean(content**2, axis=(1, 2)) + np.mean(style**2, axis=(1, 2)))
     return difference / (size + MISMATCH_FLOOR)
+
+
+def _largest_gap(
+    content_actions: FloatArray,
+    library_actions: FloatArray,
+    patches: list[Patch],
+    patch_frames: int,
+    columns: IntArray,
+) -> FloatArray:
+    """(P,) per patch, the largest distance over its L frames between the content span's values of the
+    action columns (K,) (stretched to L frames) and its window's: a kick lasts less than a patch, and the
+    patches' means halved it."""
+    spans, windows = patch_windows(content_actions, library_actions, patches, patch_frames, columns)
+    return np.linalg.norm(spans - windows, axis=2).max(axis=1) if len(patches) else np.zeros(0)
 
 
 def keep_share(mismatch: FloatArray, above: float, ease_steps: float, held: bool = False) -> FloatArray:
