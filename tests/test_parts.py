@@ -301,9 +301,11 @@ def test_a_waving_hand_given_a_walks_style_stays_raised_and_waves(
     patches = result.explain["styles"][0]["patches"]
     offsets = [p["parts"]["right-arm"]["hand_offset"] for p in patches[2:-2]]
     assert min(offsets) > 0.4, offsets  # the walk's hand is elsewhere, as the explain file records
+    # without the arm's measures, and the legs never keeping the wave's standing (which keeps the arms as well
+    # where the windows step), the hand drops
     swapped = transfer(wave, clips["walk_masculine_010"], model=model, timing="content", arm_offset_above=9.0,
-                       arm_rhythm_above=1.0)  # fmt: skip
-    assert np.median(_hand_height_legs(swapped.motion, "right")[middle]) < 0.3  # without it, the hand drops
+                       arm_rhythm_above=1.0, keep_action_above=2.0)  # fmt: skip
+    assert np.median(_hand_height_legs(swapped.motion, "right")[middle]) < 0.3
 
 
 def test_a_raised_hand_given_a_waves_style_does_not_wave(model, dataset_clips: list[ClipRef]) -> None:  # type: ignore[no-untyped-def]
@@ -671,3 +673,48 @@ def test_a_kick_keeps_its_height_under_any_style(
     output = lift(transfer(kick, style, model=model).motion)
     assert output.max() > 0.9 * content.max()
     assert np.sum(output > 20.0) >= 0.9 * np.sum(content > 20.0)  # 18 frames of 18
+
+
+def test_punches_given_a_walks_style_are_still_punches(model, dataset_clips: list[ClipRef]) -> None:  # type: ignore[no-untyped-def]
+    """Four punches in place (a held-out take's standing pose, the right arm swung 85 degrees forward and
+    back, 0.5 s each, the hand 62 cm out) given a walk's style. They come and go as a walking arm's swing
+    does and the hand's mean place over a patch differs from a swing's by 0.3 legs, so the arm took the
+    walk's swing (the hand never 18 cm from its place). Where the content stays in place and the windows
+    step, the arms keep the content's action."""
+    from elastyle.core.rotations import multiply
+
+    standing = clip_named(dataset_clips, "dataset-2_wave-right-hand_normal_010").read()[0]
+    frames = int(5.0 * standing.fps)
+    held = Motion(
+        standing.skeleton,
+        np.repeat(standing.rotations[:1], frames, axis=0),
+        np.repeat(standing.translations[:1], frames, axis=0),
+        standing.fps,
+    )
+    skeleton = standing.skeleton
+    world_rotations, positions = held.world()
+    forward = positions[0, skeleton.index("Toes_R")] - positions[0, skeleton.index("Foot_R")]
+    forward = np.array([forward[0], 0.0, forward[2]]) / np.linalg.norm([forward[0], forward[2]])
+    lateral = np.cross([0.0, 1.0, 0.0], forward)
+    time = np.arange(frames) / standing.fps
+    swing = sum(
+        0.5 - 0.5 * np.cos(np.pi * np.clip(1 - np.abs(time - at) / 0.25, 0.0, 1.0))
+        for at in (1.2, 2.0, 2.8, 3.6)
+    )
+    arm = skeleton.index("UpperArm_R")
+    axis = np.einsum("tji,j->ti", world_rotations[:, skeleton.parents[arm]], lateral)
+    rotations = held.rotations.copy()
+    rotations[:, arm] = multiply(axis * (-np.radians(85.0) * swing)[:, None], rotations[:, arm])
+    punches = Motion(skeleton, rotations, held.translations, standing.fps)
+
+    def reach(motion: Motion) -> FloatArray:
+        positions = motion.positions()
+        hand = positions[:, skeleton.index("Hand_R")] - positions[:, skeleton.pelvis]
+        return np.linalg.norm(hand - hand[:1], axis=1)  # (T,) cm from where it starts
+
+    content = reach(punches)
+    assert content.max() > 55.0
+    style = clip_named(dataset_clips, "dataset-2_walk_elderly_015").read()[0]
+    output = reach(transfer(punches, style, model=model).motion)
+    assert output.max() > 0.9 * content.max()
+    assert np.sum(output > 30.0) >= 0.9 * np.sum(content > 30.0)  # 28 frames of 28

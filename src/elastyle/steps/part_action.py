@@ -84,6 +84,7 @@ def part_keeps(
     other_action: dict[str, FloatArray] = {}
     posture: dict[str, FloatArray] = {}
     standing = np.ones_like(grid)  # (G,) where the content's legs stand (throughout without legs)
+    stepping_windows = np.zeros_like(grid)  # (G,) where the content stays in place and the windows step
     if "legs" in mismatch:
         leg_columns = part_columns["legs"]
         shifted_mismatch = part_mismatch(content_actions, library.actions, shifted, patch_frames, leg_columns)
@@ -129,7 +130,9 @@ def part_keeps(
         # legs that do not travel take none of a stepping style's statistics: its legs' mean is a stride's
         # bent knees and lifted heels, not a manner (a raise given a run's statistics stood on tiptoe, knees
         # bent; a kick given a walk's rose half as high)
-        other_action["legs"] = keep_share(on_grid(*gait), config.keep_action_above, ease) * travelling
+        other_gait = keep_share(on_grid(*gait), config.keep_action_above, ease)
+        other_action["legs"] = other_gait * travelling
+        stepping_windows = other_gait * (1 - travelling)
     if "spine" in part_columns:
         lean_columns = part_columns["spine"]
         lean = [
@@ -174,7 +177,11 @@ def part_keeps(
         for values, above in ((offset, config.arm_offset_above), (rhythm, config.arm_rhythm_above)):
             plain, held = keep_share(values, above, ease), keep_share(values, above, ease, held=True)
             shares.append(plain + sways_more * (held - plain))
-        keep[part] = np.max([*shares, end_share(grid, ARM_ENDS_PATCHES * patch_frames)], axis=0)
+        # where the content stays in place and the windows step, their arms swing with the stride: the arm keeps
+        # the content's action whatever it does (punches, which come and go like a swing, took a walk's swing)
+        keep[part] = np.max(
+            [*shares, end_share(grid, ARM_ENDS_PATCHES * patch_frames), stepping_windows], axis=0
+        )
     return PartKeeps(mismatch, measures, keep, other_action, posture)
 
 
