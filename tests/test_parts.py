@@ -507,10 +507,10 @@ def test_a_sideways_walk_is_told_its_legs_keep_their_own_steps(
     assert "sideways" not in caplog.text
 
 
-def _bowed(motion: Motion, seconds: float, degrees: float) -> Motion:
+def _bowed(motion: Motion, seconds: float, degrees: float, hips_back_cm: float = 0.0) -> Motion:
     """The first frame of `motion` held for `seconds`, its trunk bending forward by `degrees` (shared by the
-    spine joints below the head) from 1 s on, held, and back by 1 s before the end: a bow, which no
-    dataset clip performs."""
+    spine joints below the head) from 1 s on, held, and back by 1 s before the end, the hips going back by
+    `hips_back_cm` as it bends: a bow, which no dataset clip performs."""
     from elastyle.core.parts import trunk
     from elastyle.core.rotations import multiply
     from elastyle.steps.action import trunk_top
@@ -532,12 +532,13 @@ def _bowed(motion: Motion, seconds: float, degrees: float) -> Motion:
     ramp = np.clip(np.minimum(time - 1.0, seconds - 1.0 - time) / 0.8, 0.0, 1.0)
     angle = np.radians(degrees) * (0.5 - 0.5 * np.cos(np.pi * ramp))  # (T,)
     bending = [j for j in trunk(motion.skeleton) if j != trunk_top(motion.skeleton)][:2]
-    rotations = held.rotations.copy()
+    rotations, translations = held.rotations.copy(), held.translations.copy()
+    translations[:, motion.skeleton.pelvis] -= (hips_back_cm * angle / np.radians(degrees))[:, None] * forward
     for joint in bending:
         parent = motion.skeleton.parents[joint]
         axis = np.einsum("tji,j->ti", world_rotations[:, parent], lateral)  # in the parent's frame
         rotations[:, joint] = multiply(axis * (angle / len(bending))[:, None], rotations[:, joint])
-    return Motion(motion.skeleton, rotations, held.translations, motion.fps)
+    return Motion(motion.skeleton, rotations, translations, motion.fps)
 
 
 def _trunk_tilt_degrees(motion: Motion) -> FloatArray:
@@ -547,20 +548,25 @@ def _trunk_tilt_degrees(motion: Motion) -> FloatArray:
     return np.degrees(np.arccos(line[:, 1] / np.linalg.norm(line, axis=1)))
 
 
-def test_a_bow_given_a_waves_style_still_bows(model, dataset_clips: list[ClipRef]) -> None:  # type: ignore[no-untyped-def]
-    """A bow (a held-out take's standing pose, its trunk bent 55 degrees, the head 31 degrees off upright)
-    given a one-handed wave's style: the spine keeps the content's action where the head leans otherwise
-    than in the matched windows, so the output bows too. Before, the legs stood as in the windows and the
-    spine took the wave's upright windows: the head never leant more than 6 degrees."""
+@pytest.mark.parametrize("hips_back_cm", [0.0, 12.0])
+def test_a_bow_given_a_waves_style_still_bows(
+    model, dataset_clips: list[ClipRef], hips_back_cm: float
+) -> None:  # type: ignore[no-untyped-def]
+    """A bow (a held-out take's standing pose, its trunk bent 55 degrees, the head 31 degrees off upright,
+    its hips still or going back 12 cm as a person's do) given a one-handed wave's style: where the content
+    does not travel, the spine keeps the content's action where the head leans otherwise than in the
+    matched windows, so the output bows too. Before, the legs stood as in the windows and the spine took
+    the wave's upright windows: the head never leant more than 6 degrees. With the hips moving (24 cm/s),
+    a gate on legs that stand still kept less of it (34 frames of 61 past 20 degrees, now 45)."""
     standing = clip_named(dataset_clips, "dataset-2_wave-right-hand_normal_010").read()[0]
-    bow = _bowed(standing, 5.0, 55.0)
+    bow = _bowed(standing, 5.0, 55.0, hips_back_cm)
     style = clip_named(dataset_clips, "dataset-2_wave-right-hand_feminine_005").read()[0]
     content_tilt = _trunk_tilt_degrees(bow)
     assert content_tilt.max() > 28.0
     result = transfer(bow, style, model=model)
     tilt = _trunk_tilt_degrees(result.motion)
     assert tilt.max() > 0.8 * content_tilt.max()  # 29 of 31 degrees
-    assert np.sum(tilt > 20.0) > 0.5 * np.sum(content_tilt > 20.0)  # 40 frames of 61
+    assert np.sum(tilt > 20.0) > 0.68 * np.sum(content_tilt > 20.0)  # 44 and 45 frames of 61
     leaning = [p["parts"]["spine"] for p in result.explain["styles"][0]["patches"]]
     assert (
         max(part["lean_offset"] for part in leaning) > 0.25 and max(p["content_share"] for p in leaning) > 0.9

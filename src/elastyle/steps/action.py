@@ -151,10 +151,15 @@ def place_columns(leg_columns: IntArray) -> IntArray:
     return np.append(feet, feet[-1] + 1) if len(feet) else feet
 
 
+# a body travels (walks, runs) where its pelvis moves faster than this (legs/s): a slow walk moves about 0.6, a
+# bow's hips going back 12 cm about 0.25 at their fastest, a weight shift less
+TRAVEL_LEGS_S = 0.3
+
+
 def travelling_legs(actions: FloatArray, leg_columns: IntArray) -> BoolArray:
-    """(T,) the frames of `action_channels` (T, A) where the pelvis travels faster than `STILL_LEGS_S`;
+    """(T,) the frames of `action_channels` (T, A) where the pelvis travels faster than `TRAVEL_LEGS_S`;
     leg_columns: the legs' columns (`part_channels`: travel first)."""
-    return lengths(actions[:, leg_columns[:2]]) > STILL_LEGS_S
+    return lengths(actions[:, leg_columns[:2]]) > TRAVEL_LEGS_S
 
 
 def standing_legs(actions: FloatArray, leg_columns: IntArray, fps: float) -> BoolArray:

@@ -19,7 +19,6 @@ from elastyle.core.smoothing import smooth, smoothstep
 from elastyle.steps.action import (
     TURNING_COLUMN,
     place_columns,
-    standing_legs,
     sustained_turning,
     travelling_legs,
 )
@@ -69,8 +68,8 @@ def part_keeps(
     ease: the shares' easing in time, grid steps. Where the legs do another action than the windows (a walk
     matched against a run or a wave, in place a kick or a crouch against a stand), legs and spine keep the
     content's action;
-    where the content stands and its head leans away from its carriage otherwise than the window's (a bow
-    against a standing wave), the spine does;
+    where the content does not travel and its head leans away from its carriage otherwise than the window's
+    (a bow against a standing wave), the spine does;
     where an arm's hand is elsewhere or goes back and forth where the window's does not (or the other way
     round), that arm does. The spine's mean posture reads where it keeps the content's action for the legs'
     sake, not where it leans otherwise (the change there is a bow undone, not a carriage)."""
@@ -83,7 +82,7 @@ def part_keeps(
     keep: dict[str, FloatArray] = {}
     other_action: dict[str, FloatArray] = {}
     posture: dict[str, FloatArray] = {}
-    standing = np.ones_like(grid)  # (G,) where the content's legs stand (throughout without legs)
+    in_place = np.ones_like(grid)  # (G,) where the content does not travel (throughout without legs)
     stepping_windows = np.zeros_like(grid)  # (G,) where the content stays in place and the windows step
     if "legs" in mismatch:
         leg_columns = part_columns["legs"]
@@ -104,11 +103,11 @@ def part_keeps(
             for sequence in (patches, shifted)
         ]  # fmt: skip
         measures["legs"] = {"turning_difference": turning[0], "gait_mismatch": gait[0]}
-        frames = np.arange(len(content_actions))
-        standing = np.interp(grid, frames, standing_legs(content_actions, leg_columns, fps))
-        standing = np.clip(smooth(standing, ease), 0.0, 1.0)  # (G,)
-        travelling = np.interp(grid, frames, travelling_legs(content_actions, leg_columns))
+        travelling = np.interp(
+            grid, np.arange(len(content_actions)), travelling_legs(content_actions, leg_columns)
+        )
         travelling = np.clip(smooth(travelling, ease), 0.0, 1.0)  # (G,)
+        in_place = 1 - travelling
         shares = [
             keep_share(on_grid(mismatch["legs"], shifted_mismatch), config.keep_action_above, ease),
             keep_share(on_grid(*turning), config.legs_turning_above, ease),
@@ -122,8 +121,8 @@ def part_keeps(
                 for sequence in (patches, shifted)
             ]
             measures["legs"]["place_offset"] = place[0]
-            in_place = keep_share(on_grid(*place), config.legs_place_above, ease, held=True)
-            shares.append(in_place * (1 - travelling))
+            in_place_share = keep_share(on_grid(*place), config.legs_place_above, ease, held=True)
+            shares.append(in_place_share * in_place)
         share = np.max(shares, axis=0)
         keep = {"legs": share, "spine": share}
         posture["spine"] = share
@@ -132,7 +131,7 @@ def part_keeps(
         # bent; a kick given a walk's rose half as high)
         other_gait = keep_share(on_grid(*gait), config.keep_action_above, ease)
         other_action["legs"] = other_gait * travelling
-        stepping_windows = other_gait * (1 - travelling)
+        stepping_windows = other_gait * in_place
     if "spine" in part_columns:
         lean_columns = part_columns["spine"]
         lean = [
@@ -142,9 +141,9 @@ def part_keeps(
             for sequence in (patches, shifted)
         ]
         measures["spine"] = {"lean_offset": lean[0]}
-        # only where the content stands: there a lean is an action (a bow, a reach down); a travelling body's
-        # lean is its gait's manner (a youthful run leans 0.19 legs further forward than a normal one)
-        leans = keep_share(on_grid(*lean), config.spine_lean_above, ease) * standing
+        # only where the content does not travel: there a lean is an action (a bow, a reach down); a travelling
+        # body's lean is its gait's manner (a youthful run leans 0.19 legs further forward than a normal one)
+        leans = keep_share(on_grid(*lean), config.spine_lean_above, ease) * in_place
         keep["spine"] = np.maximum(keep.get("spine", 0.0), leans)
         posture["spine"] = posture.get("spine", np.zeros_like(grid)) * (1 - leans)
     for part, columns in part_columns.items():
