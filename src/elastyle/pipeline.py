@@ -67,7 +67,7 @@ from elastyle.steps.library import StyleLibrary, as_library
 from elastyle.steps.schedule import Schedule
 from elastyle.steps.timeline import content_grid, mix_tracks, on_output_frames, output_content_times
 from elastyle.steps.track import MIN_PATCH_FRAMES, requested_patch_frames, style_track
-from elastyle.types import FloatArray
+from elastyle.types import FloatArray, IntArray
 
 StyleInput = Motion | Sequence[Motion] | StyleLibrary
 # with residual decoding the foot clean-up acts in full from this strength on, and in proportion below it
@@ -307,10 +307,7 @@ def transfer(
     # ... and as far as the strength goes: fading out, the pelvis comes back to the content's path over planted
     # feet (blended back with the clean-up below strength 0.25, a stride's move slid the feet 75 to 150 cm/s)
     root_applied = np.clip(strength_out, 0.0, 1.0)  # (N,)
-    if config.decode == "plain":
-        keep[:, automatic] *= np.clip(strength_out, 0.0, 1.0)[:, None]
-    else:  # at strength 0 the output is the content already, to the last bit
-        keep[np.ix_(strength_out <= 0, automatic)] = 0.0
+    _by_strength(keep, automatic, strength_out, config.decode)
     lowest_ground = _lowest_ground(working, world[1])  # none without feet
     if config.cleanup:
         # on the content's floor (toes the style's statistics swing through it are lifted); where the style's
@@ -347,7 +344,8 @@ def transfer(
             coloured_at = frames_of(coloured_decoded, positions)
         posture = keep_weights(
             tracks, shares, part_tracks, content.skeleton, grid, content_time, positions, kept, "posture"
-        )  # (N, J)
+        )  # (N, J), read as the keep is
+        _by_strength(posture, automatic, strength_out, config.decode)
         target = keep_target(content_at, styled_at, reference, posture, strength_out, coloured_at, colour)
         motion = blend_by_strength(motion, target, keep)
         if config.cleanup and (coloured_at is not None or np.any(keep[:, automatic_legs] > 0)):
@@ -415,6 +413,17 @@ def transfer(
 
 
 SINK_CM = 1.0  # the clean-up lets toes stand at most this far below the content's ground
+
+
+def _by_strength(weights: FloatArray, automatic: IntArray, strength: FloatArray, decode: str) -> None:
+    """Per-joint weights (N, J) of the content's kept action, in place, as far as the strength (N,) goes at
+    the automatic joints (A,): plain decoding keeps the content's action only as far as the strength goes
+    (at strength 0 its output stays the model's reading); residual decoding at strength 0 is the content
+    already, to the last bit."""
+    if decode == "plain":
+        weights[:, automatic] *= np.clip(strength, 0.0, 1.0)[:, None]
+    else:
+        weights[np.ix_(strength <= 0, automatic)] = 0.0
 
 
 def _lowest_ground(content: Motion, positions: FloatArray) -> float | None:

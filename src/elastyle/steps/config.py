@@ -139,14 +139,16 @@ class TransferConfig:
         "where the legs keep the content's action because the matched style windows perform another (their "
         "travel and steps differ, not only their turning: a walk given a run's or a wave's style), the share of "
         "the style's statistics (the report's colouring of the content's latents) they take on top of it "
-        "(none where they stand: a stepping style's statistics are a stride's bent knees); 0: the content's own legs",
+        "(none where they do not travel: a stepping style's statistics are a stride's bent knees); 0: the content's "
+        "own legs",
         low=0.0, high=1.0,
     )  # fmt: skip
     arm_offset_above: float = option(
         0.4,
         "per arm: where the hand's mean place over a patch lies more than this (leg lengths) from the matched "
         "style window's, the arm keeps the content's action (a raised hand given a walk's style stays raised), "
-        "eased in over 0.15 above it; 9: never",
+        "eased in over 0.15 above it; 9: never (the arms still keep it where the content keeps its place and "
+        "its legs their action while the windows travel)",
         low=0.0, high=9.0,
     )  # fmt: skip
     arm_rhythm_above: float = option(
@@ -159,10 +161,10 @@ class TransferConfig:
     )  # fmt: skip
     spine_lean_above: float = option(
         0.15,
-        "per body part: where the content stands and its head's lean away from its usual carriage (its place "
-        "relative to the pelvis, less that over the clip's most upright tenth) differs over a patch from the "
-        "matched style window's by more than this (leg lengths), the spine keeps the content's action (a bow "
-        "given a wave's style still bows), eased in over 0.15 above it; 9: never",
+        "per body part: where the content does not travel and its head's lean away from its usual carriage (its "
+        "place relative to the pelvis, less that over the clip's most upright tenth) differs over a patch from "
+        "the matched style window's by more than this (leg lengths), the spine keeps the content's action (a "
+        "bow given a wave's style still bows), eased in over 0.15 above it; 9: never",
         low=0.0, high=9.0,
     )  # fmt: skip
     keep_part: str = option(

@@ -31,6 +31,7 @@ from elastyle.steps.track import StyleTrack
 from elastyle.types import FloatArray, IntArray
 
 POSTURE_WINDOW_S = 10.0  # the style's posture is a local mean: Gaussian sigma, seconds
+POSTURE_SUPPORT = 0.1  # ... of the change over frames whose weights average at least this (less: scaled down)
 
 
 def keep_weights(
@@ -155,7 +156,9 @@ def keep_target(
         weight = posture[:, joints, None]  # (N, P, 1)
         change = _change(reference, styled, joints)  # (N, P, 3) the style's change to each posture joint
         sigma = POSTURE_WINDOW_S * content.fps
-        mean_change = smooth(weight * change, sigma) / np.maximum(smooth(weight, sigma), 1e-9)  # (N, P, 3)
+        # a local mean backed by at least POSTURE_SUPPORT of weight: a few frames weighed near 0 (a bow's edges)
+        # gave the whole change of a mean of their own, undoing the bow they lie beside
+        mean_change = smooth(weight * change, sigma) / np.maximum(smooth(weight, sigma), POSTURE_SUPPORT)
         rotations[np.ix_(acting, joints)] = multiply(
             rotations[np.ix_(acting, joints)], scale * mean_change[acting]
         )

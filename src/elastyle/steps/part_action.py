@@ -1,9 +1,11 @@
 """Per body part: whether it does what its matched style windows do, and where it keeps the content's own
 action instead (docs/method.md, "Per body part").
 
-The legs compare their travel and steps (`part_mismatch`) and their turning; each arm where its hand is
-and whether it goes back and forth (`steps.arms`). A part's share of the content's action rises from 0 to 1
-over `KEEP_RAMP` past its threshold (`TransferConfig`), eased in and out in time; `steps.keep` performs it.
+The legs compare their travel and steps (`part_mismatch`), their turning and, in place, where the feet and
+pelvis are; the spine, in place, how the head leans; each arm where its hand is and whether it goes back and
+forth (`steps.arms`), and keeps the content's action outright where the content keeps its place under
+travelling windows. A part's share of the content's action rises from 0 to 1 over `KEEP_RAMP` past its
+threshold (`TransferConfig`), eased in and out in time; `steps.keep` performs it.
 """
 
 from __future__ import annotations
@@ -67,12 +69,12 @@ def part_keeps(
     two sequences' per-patch values (P,), (P - 1,) -> (G,) on the grid (G,) as the latents are cross-faded;
     ease: the shares' easing in time, grid steps. Where the legs do another action than the windows (a walk
     matched against a run or a wave, in place a kick or a crouch against a stand), legs and spine keep the
-    content's action;
-    where the content does not travel and its head leans away from its carriage otherwise than the window's
-    (a bow against a standing wave), the spine does;
-    where an arm's hand is elsewhere or goes back and forth where the window's does not (or the other way
-    round), that arm does. The spine's mean posture reads where it keeps the content's action for the legs'
-    sake, not where it leans otherwise (the change there is a bow undone, not a carriage)."""
+    content's action; where the content does not travel and its head leans away from its carriage otherwise
+    than the window's (a bow against a standing wave), the spine does; where an arm's hand is elsewhere or
+    goes back and forth where the window's does not (or the other way round), and wherever the content keeps
+    its place and its legs their action while the windows travel, that arm does. The spine's mean posture
+    reads where it keeps the content's action for the legs' sake, not where it leans otherwise (the change
+    there is a bow undone, not a carriage)."""
     patches, shifted = sequences
     mismatch = {
         part: part_mismatch(content_actions, library.actions, patches, patch_frames, columns)
@@ -82,8 +84,8 @@ def part_keeps(
     keep: dict[str, FloatArray] = {}
     other_action: dict[str, FloatArray] = {}
     posture: dict[str, FloatArray] = {}
-    in_place = np.ones_like(grid)  # (G,) where the content does not travel (throughout without legs)
-    stepping_windows = np.zeros_like(grid)  # (G,) where the content stays in place and the windows step
+    in_place = np.ones_like(grid)  # (G,) where the content does not travel
+    in_place_under_travel = np.zeros_like(grid)  # (G,) where the content keeps its place, the windows travel
     if "legs" in mismatch:
         leg_columns = part_columns["legs"]
         shifted_mismatch = part_mismatch(content_actions, library.actions, shifted, patch_frames, leg_columns)
@@ -103,8 +105,11 @@ def part_keeps(
             for sequence in (patches, shifted)
         ]  # fmt: skip
         measures["legs"] = {"turning_difference": turning[0], "gait_mismatch": gait[0]}
+        one_clip = np.zeros(1, dtype=np.int64)
         travelling = np.interp(
-            grid, np.arange(len(content_actions)), travelling_legs(content_actions, leg_columns)
+            grid,
+            np.arange(len(content_actions)),
+            travelling_legs(content_actions, leg_columns, one_clip, fps),
         )
         travelling = np.clip(smooth(travelling, ease), 0.0, 1.0)  # (G,)
         in_place = 1 - travelling
@@ -129,9 +134,19 @@ def part_keeps(
         # legs that do not travel take none of a stepping style's statistics: its legs' mean is a stride's
         # bent knees and lifted heels, not a manner (a raise given a run's statistics stood on tiptoe, knees
         # bent; a kick given a walk's rose half as high)
-        other_gait = keep_share(on_grid(*gait), config.keep_action_above, ease)
-        other_action["legs"] = other_gait * travelling
-        stepping_windows = other_gait * in_place
+        other_action["legs"] = keep_share(on_grid(*gait), config.keep_action_above, ease) * travelling
+        # the content keeps to its place, its legs keep its action, and the windows travel
+        library_travelling = library.derived(
+            ("travelling", tuple(leg_columns[:2].tolist()), fps),
+            lambda: travelling_legs(library.actions, leg_columns, library.clip_starts, fps)[:, None],
+        )
+        windows_travel = on_grid(
+            *(
+                _window_mean(library_travelling[:, 0], sequence, patch_frames)
+                for sequence in (patches, shifted)
+            )
+        )
+        in_place_under_travel = share * in_place * np.clip(windows_travel, 0.0, 1.0)
     if "spine" in part_columns:
         lean_columns = part_columns["spine"]
         lean = [
@@ -176,10 +191,11 @@ def part_keeps(
         for values, above in ((offset, config.arm_offset_above), (rhythm, config.arm_rhythm_above)):
             plain, held = keep_share(values, above, ease), keep_share(values, above, ease, held=True)
             shares.append(plain + sways_more * (held - plain))
-        # where the content stays in place and the windows step, their arms swing with the stride: the arm keeps
-        # the content's action whatever it does (punches, which come and go like a swing, took a walk's swing)
+        # where the content keeps its place, and its legs their action, while the windows travel, their arms
+        # swing with the stride: the arm keeps the content's action whatever it does (punches, which come and go
+        # like a swing, took a walk's swing)
         keep[part] = np.max(
-            [*shares, end_share(grid, ARM_ENDS_PATCHES * patch_frames), stepping_windows], axis=0
+            [*shares, end_share(grid, ARM_ENDS_PATCHES * patch_frames), in_place_under_travel], axis=0
         )
     return PartKeeps(mismatch, measures, keep, other_action, posture)
 
@@ -200,6 +216,14 @@ def part_mismatch(
     difference = np.sqrt(np.mean((content - style) ** 2, axis=(1, 2)))
     size = np.sqrt(np.mean(content**2, axis=(1, 2)) + np.mean(style**2, axis=(1, 2)))
     return difference / (size + MISMATCH_FLOOR)
+
+
+def _window_mean(values: FloatArray, patches: list[Patch], patch_frames: int) -> FloatArray:
+    """(P,) per patch, the mean of per-frame library values (N,) over its style window."""
+    if not patches:
+        return np.zeros(0)
+    rows = np.array([p.style_start for p in patches])[:, None] + np.arange(patch_frames)  # (P, L)
+    return np.asarray(values, dtype=np.float64)[np.minimum(rows, len(values) - 1)].mean(axis=1)
 
 
 def _largest_gap(
