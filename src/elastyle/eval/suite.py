@@ -36,7 +36,10 @@ log = logging.getLogger(__name__)
 VARIANTS: dict[str, TransferConfig] = {
     "elastic (sequential)": TransferConfig(),
     "elastic, raw (no foot clean-up)": TransferConfig(cleanup=False),
-    "elastic, swap everywhere (--keep-action-above 2)": TransferConfig(keep_action_above=2.0),
+    # the report's swap for the legs and spine: none kept for their action, their place or a lean
+    "elastic, swap everywhere (--keep-action-above 2 --legs-place-above 9 --spine-lean-above 9)": TransferConfig(
+        keep_action_above=2.0, legs_place_above=9.0, spine_lean_above=9.0
+    ),
     "elastic, --timing content": TransferConfig(timing="content"),
     "elastic, fixed placement (report literal)": TransferConfig(placement="fixed"),
     "rigid": TransferConfig(method="rigid"),
