@@ -274,6 +274,14 @@ def test_a_shortened_patch_is_noted_and_recorded(tmp_path: Path, dataset_clips: 
     record = json.loads(explain.read_text())
     assert record["styles"][0]["patch_s_used"] == pytest.approx(28 / 30, abs=1e-3)
     assert record["notes"] and "instead of --patch-s 1" in record["notes"][0]
+    # a longer patch asked: the same clip is as short against a default patch, so the same note (it was a
+    # warning under --patch-s 2)
+    result = _cli(
+        "transfer", walk.name, "--style", str(style_of(28)), "-o", str(tmp_path / "p2.bvh"), "--patch-s", "2"
+    )
+    assert result.returncode == 0 and re.search(
+        r"note: \S*style_28.bvh: the style clips are at most 0.93 s", result.stderr
+    )
     # a style clip under 0.9 of a patch, less than a stride (its windows make the feet slide: a walk given 20
     # frames of another skated 15 to 38 cm/s) or far less: a warning that says what it costs, not a note
     for frame_count, seconds in ((20, "0.67"), (5, "0.17")):

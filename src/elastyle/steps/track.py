@@ -83,9 +83,10 @@ def patch_notes(
             f"{names}: the style clips are at most {patch_frames / fps:.2f} s long, so patches are "
             f"{patch_frames / fps:.2f} s instead of --patch-s {config.patch_s:g}"
         )
-        # short of what was asked, and short of a default patch (13 s of a 60 s one are no short window)
-        default_frames = requested_patch_frames(TransferConfig(), fps)
-        if patch_frames < min(SHORT_PATCH_SHARE * requested_patch_frames(config, fps), default_frames):
+        # short of what was asked, and short of a default patch (13 s of a 60 s one are no short window), by
+        # the same share (a 28-frame clip: a note under --patch-s 1, and under 2 as well)
+        asked = min(requested_patch_frames(config, fps), requested_patch_frames(TransferConfig(), fps))
+        if patch_frames < SHORT_PATCH_SHARE * asked:
             notes.append((logging.WARNING, (
                 f"warning: {shortened}; windows this short carry little of a style's manner and the output may "
                 "step or slide oddly: give a style clip at least as long as --patch-s"
