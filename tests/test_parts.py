@@ -507,6 +507,42 @@ def test_a_sideways_walk_is_told_its_legs_keep_their_own_steps(
     assert "sideways" not in caplog.text
 
 
+def _held(motion: Motion, seconds: float) -> Motion:
+    """The first frame of `motion` held for `seconds`: a standing pose to build actions on."""
+    frames = int(seconds * motion.fps)
+    return Motion(
+        motion.skeleton,
+        np.repeat(motion.rotations[:1], frames, axis=0),
+        np.repeat(motion.translations[:1], frames, axis=0),
+        motion.fps,
+    )
+
+
+def _facing(held: Motion, toe: int, ankle: int) -> tuple[FloatArray, FloatArray]:
+    """The horizontal forward direction (3,) of a standing pose, from one foot's ankle to its toe at the
+    first frame, and the lateral axis (3,) about which a forward turn is a negative angle."""
+    positions = held.positions()
+    forward = positions[0, toe] - positions[0, ankle]
+    forward = np.array([forward[0], 0.0, forward[2]]) / np.linalg.norm([forward[0], forward[2]])
+    return forward, np.cross([0.0, 1.0, 0.0], forward)
+
+
+def _swung(held: Motion, joint_name: str, degrees: float, at_s: tuple[float, ...], half_s: float) -> Motion:
+    """A held pose whose joint swings forward by `degrees` and back, centred at each of `at_s` (seconds),
+    over `half_s` either side (a cosine ease)."""
+    from elastyle.core.rotations import multiply
+
+    skeleton = held.skeleton
+    _, lateral = _facing(held, skeleton.index("Toes_R"), skeleton.index("Foot_R"))
+    time = np.arange(held.num_frames) / held.fps
+    swing = sum(0.5 - 0.5 * np.cos(np.pi * np.clip(1 - np.abs(time - at) / half_s, 0.0, 1.0)) for at in at_s)
+    joint = skeleton.index(joint_name)
+    axis = np.einsum("tji,j->ti", held.world()[0][:, skeleton.parents[joint]], lateral)  # the parent's frame
+    rotations = held.rotations.copy()  # the joint turned about the lateral axis, forward for a negative angle
+    rotations[:, joint] = multiply(axis * (-np.radians(degrees) * swing)[:, None], rotations[:, joint])
+    return Motion(skeleton, rotations, held.translations, held.fps)
+
+
 def _bowed(motion: Motion, seconds: float, degrees: float, hips_back_cm: float = 0.0) -> Motion:
     """The first frame of `motion` held for `seconds`, its trunk bending forward by `degrees` (shared by the
     spine joints below the head) from 1 s on, held, and back by 1 s before the end, the hips going back by
@@ -515,20 +551,11 @@ def _bowed(motion: Motion, seconds: float, degrees: float, hips_back_cm: float =
     from elastyle.core.rotations import multiply
     from elastyle.steps.action import trunk_top
 
-    frames = int(seconds * motion.fps)
-    held = Motion(
-        motion.skeleton,
-        np.repeat(motion.rotations[:1], frames, axis=0),
-        np.repeat(motion.translations[:1], frames, axis=0),
-        motion.fps,
-    )
-    world_rotations, positions = held.world()
+    held = _held(motion, seconds)
+    world_rotations = held.world()[0]
     feet = find_limbs(motion.skeleton)
-    toe, ankle = feet.toes[0], feet.ankles[0]
-    forward = positions[0, toe] - positions[0, ankle]
-    forward = np.array([forward[0], 0.0, forward[2]]) / np.linalg.norm([forward[0], forward[2]])
-    lateral = np.cross([0.0, 1.0, 0.0], forward)  # a turn about it bends forward
-    time = np.arange(frames) / motion.fps
+    forward, lateral = _facing(held, feet.toes[0], feet.ankles[0])  # a turn about lateral bends forward
+    time = np.arange(held.num_frames) / motion.fps
     ramp = np.clip(np.minimum(time - 1.0, seconds - 1.0 - time) / 0.8, 0.0, 1.0)
     angle = np.radians(degrees) * (0.5 - 0.5 * np.cos(np.pi * ramp))  # (T,)
     bending = [j for j in trunk(motion.skeleton) if j != trunk_top(motion.skeleton)][:2]
@@ -584,11 +611,9 @@ def _crouched(motion: Motion, seconds: float, depth_cm: float) -> Motion:
     which no dataset clip performs."""
     from elastyle.steps.leg_ik import leg_ik
 
-    frames = int(seconds * motion.fps)
-    rotations = np.repeat(motion.rotations[:1], frames, axis=0)
-    translations = np.repeat(motion.translations[:1], frames, axis=0)
-    standing = Motion(motion.skeleton, rotations, translations, motion.fps).positions()
-    time = np.arange(frames) / motion.fps
+    held = _held(motion, seconds)
+    rotations, translations, standing = held.rotations, held.translations, held.positions()
+    time = np.arange(held.num_frames) / motion.fps
     ramp = np.clip(np.minimum(time - 1.0, seconds - 1.0 - time) / 0.6, 0.0, 1.0)
     lowered = translations.copy()
     lowered[:, motion.skeleton.pelvis, 1] -= depth_cm * (0.5 - 0.5 * np.cos(np.pi * ramp))
@@ -633,29 +658,7 @@ def test_a_crouch_given_a_waves_style_still_crouches(model, dataset_clips: list[
 def _kicked(motion: Motion, seconds: float, degrees: float) -> Motion:
     """The first frame of `motion` held for `seconds`, its right thigh swung forward by `degrees` and back
     twice, 0.8 s each, at 1.5 s and 3 s: kicks, which no dataset clip performs."""
-    from elastyle.core.rotations import multiply
-
-    frames = int(seconds * motion.fps)
-    held = Motion(
-        motion.skeleton,
-        np.repeat(motion.rotations[:1], frames, axis=0),
-        np.repeat(motion.translations[:1], frames, axis=0),
-        motion.fps,
-    )
-    world_rotations, positions = held.world()
-    skeleton = motion.skeleton
-    forward = positions[0, skeleton.index("Toes_R")] - positions[0, skeleton.index("Foot_R")]
-    forward = np.array([forward[0], 0.0, forward[2]]) / np.linalg.norm([forward[0], forward[2]])
-    lateral = np.cross([0.0, 1.0, 0.0], forward)
-    time = np.arange(frames) / motion.fps
-    swing = sum(
-        0.5 - 0.5 * np.cos(np.pi * np.clip(1 - np.abs(time - at) / 0.4, 0.0, 1.0)) for at in (1.5, 3.0)
-    )
-    thigh = skeleton.index("UpperLeg_R")
-    axis = np.einsum("tji,j->ti", world_rotations[:, skeleton.parents[thigh]], lateral)
-    rotations = held.rotations.copy()  # the thigh turned about the lateral axis, forward for a negative angle
-    rotations[:, thigh] = multiply(axis * (-np.radians(degrees) * swing)[:, None], rotations[:, thigh])
-    return Motion(skeleton, rotations, held.translations, motion.fps)
+    return _swung(_held(motion, seconds), "UpperLeg_R", degrees, (1.5, 3.0), 0.4)
 
 
 @pytest.mark.parametrize("style_name", ["wave-right-hand_feminine_005", "walk_elderly_015"])
@@ -691,31 +694,9 @@ def test_punches_given_a_walks_style_are_still_punches(model, dataset_clips: lis
     does and the hand's mean place over a patch differs from a swing's by 0.3 legs, so the arm took the
     walk's swing (the hand never 18 cm from its place). Where the content stays in place and the windows
     step, the arms keep the content's action."""
-    from elastyle.core.rotations import multiply
-
     standing = clip_named(dataset_clips, "dataset-2_wave-right-hand_normal_010").read()[0]
-    frames = int(5.0 * standing.fps)
-    held = Motion(
-        standing.skeleton,
-        np.repeat(standing.rotations[:1], frames, axis=0),
-        np.repeat(standing.translations[:1], frames, axis=0),
-        standing.fps,
-    )
-    skeleton = standing.skeleton
-    world_rotations, positions = held.world()
-    forward = positions[0, skeleton.index("Toes_R")] - positions[0, skeleton.index("Foot_R")]
-    forward = np.array([forward[0], 0.0, forward[2]]) / np.linalg.norm([forward[0], forward[2]])
-    lateral = np.cross([0.0, 1.0, 0.0], forward)
-    time = np.arange(frames) / standing.fps
-    swing = sum(
-        0.5 - 0.5 * np.cos(np.pi * np.clip(1 - np.abs(time - at) / 0.25, 0.0, 1.0))
-        for at in (1.2, 2.0, 2.8, 3.6)
-    )
-    arm = skeleton.index("UpperArm_R")
-    axis = np.einsum("tji,j->ti", world_rotations[:, skeleton.parents[arm]], lateral)
-    rotations = held.rotations.copy()
-    rotations[:, arm] = multiply(axis * (-np.radians(85.0) * swing)[:, None], rotations[:, arm])
-    punches = Motion(skeleton, rotations, held.translations, standing.fps)
+    punches = _swung(_held(standing, 5.0), "UpperArm_R", 85.0, (1.2, 2.0, 2.8, 3.6), 0.25)
+    skeleton = punches.skeleton
 
     def reach(motion: Motion) -> FloatArray:
         positions = motion.positions()

@@ -27,7 +27,7 @@ from elastyle.steps.action import (
 from elastyle.steps.arms import arm_mismatch, back_and_forth, steady_rhythm
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.library import StyleLibrary
-from elastyle.steps.search import Patch, mean_gap, patch_windows
+from elastyle.steps.search import Patch, mean_gap, patch_windows, window_rows
 from elastyle.types import FloatArray, IntArray
 
 KEEP_RAMP = 0.15  # a part's share of the content's action rises from 0 to 1 over this much mismatch
@@ -222,8 +222,7 @@ def _window_mean(values: FloatArray, patches: list[Patch], patch_frames: int) ->
     """(P,) per patch, the mean of per-frame library values (N,) over its style window."""
     if not patches:
         return np.zeros(0)
-    rows = np.array([p.style_start for p in patches])[:, None] + np.arange(patch_frames)  # (P, L)
-    return np.asarray(values, dtype=np.float64)[np.minimum(rows, len(values) - 1)].mean(axis=1)
+    return np.asarray(values, dtype=np.float64)[window_rows(patches, patch_frames, len(values))].mean(axis=1)
 
 
 def _largest_gap(

@@ -53,6 +53,12 @@ def span_positions(starts: npt.ArrayLike, lengths: npt.ArrayLike, count: int, fr
     return starts + (frames + 0.5) * (lengths / count) - 0.5
 
 
+def window_rows(patches: list[Patch], patch_frames: int, library_frames: int) -> IntArray:
+    """(P, L) the library frames of each patch's style window, held at the library's last frame."""
+    rows = np.array([p.style_start for p in patches], dtype=np.int64)[:, None] + np.arange(patch_frames)
+    return np.minimum(rows, library_frames - 1)
+
+
 def patch_windows(
     content: FloatArray, library: FloatArray, patches: list[Patch], patch_frames: int, columns: IntArray
 ) -> tuple[FloatArray, FloatArray]:
@@ -62,8 +68,7 @@ def patch_windows(
         return np.zeros((0, patch_frames, len(columns))), np.zeros((0, patch_frames, len(columns)))
     starts, frames = np.array([(p.content_start, p.content_frames) for p in patches]).T
     spans = sample_windows(content[:, columns], starts, frames, patch_frames)  # (P, L, K)
-    rows = np.array([p.style_start for p in patches])[:, None] + np.arange(patch_frames)  # (P, L)
-    return spans, library[np.minimum(rows, len(library) - 1)][:, :, columns]
+    return spans, library[window_rows(patches, patch_frames, len(library))][:, :, columns]
 
 
 def mean_gap(content: FloatArray, library: FloatArray, patches: list[Patch], patch_frames: int) -> FloatArray:
