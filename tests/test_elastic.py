@@ -113,7 +113,7 @@ def test_mirrored_windows_are_not_taken_where_they_switch_the_content_s_sides() 
 
 def test_side_guard_reads_each_window_of_a_real_library(dataset_clips) -> None:  # type: ignore[no-untyped-def]
     from elastyle.model.file import load_model
-    from elastyle.steps.action import part_channels
+    from elastyle.steps.action import action_layout
     from elastyle.steps.library import prepare_style
     from elastyle.steps.track import side_guard
     from tests.conftest import clip_named
@@ -121,10 +121,10 @@ def test_side_guard_reads_each_window_of_a_real_library(dataset_clips) -> None: 
     model = load_model()
     raise_left = clip_named(dataset_clips, "dataset-2_raise-up-left-hand_feminine_005").read()[0]
     library = prepare_style(model, [raise_left])  # the clip and its mirror
-    columns = part_channels(raise_left.skeleton)
-    guard = side_guard(library.actions, library, 30, columns)
+    layout = action_layout(raise_left.skeleton)
+    guard = side_guard(library.actions, library, 30, layout)
     assert guard is not None
-    left, right = columns["left-arm"][:3], columns["right-arm"][:3]
+    left, right = layout.arm_hands["left-arm"], layout.arm_hands["right-arm"]
     sides = library.actions[:, left] - library.actions[:, right]
     for window in (0, 17, library.clip_starts[1] - 30, library.clip_starts[1] + 5):
         np.testing.assert_allclose(

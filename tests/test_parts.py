@@ -711,3 +711,27 @@ def test_punches_given_a_walks_style_are_still_punches(model, dataset_clips: lis
     assert np.sum(output > 30.0) >= 0.9 * np.sum(content > 30.0)  # 28 frames of 28
     # legs that never keep the content's place leave the arms to their measures: the walk's swing again
     assert reach(transfer(punches, style, model=model, keep_action_above=2.0).motion).max() < 30.0
+
+
+def test_the_action_layout_names_every_descriptor_of_a_real_walk(clips: dict[str, Motion]) -> None:
+    from elastyle.steps.action import action_channels, action_layout
+
+    walk = clips["walk_normal_005"]
+    layout = action_layout(walk.skeleton)
+    channels = action_channels(walk)  # (T, A)
+    named = np.concatenate(
+        [layout.travel, [layout.turning], layout.hands.ravel(), layout.hand_speeds, layout.feet,
+         layout.pelvis_height, layout.lean]
+    )  # fmt: skip
+    assert channels.shape[1] == layout.width
+    assert sorted(named.tolist()) == list(range(layout.width))  # each column named once
+    assert np.median(channels[:, layout.travel[0]]) > 0.5  # walks forward (legs/s) ...
+    assert abs(np.median(channels[:, layout.travel[1]])) < 0.2  # ... not sideways
+    assert np.all(channels[:, layout.hand_speeds] >= -1e-9)
+    feet = channels[:, layout.feet]  # each foot's height above its ground: planted, then lifted
+    assert np.all(np.percentile(feet, 10, axis=0) < 0.02) and np.all(feet.max(axis=0) > 0.1)
+    left = channels[:, layout.arm_hands["left-arm"]]
+    right = channels[:, layout.arm_hands["right-arm"]]
+    assert np.median(left[:, 0] - right[:, 0]) > 0.2  # +X is the left in the heading frame
+    assert set(layout.parts) == {"legs", "spine", "left-arm", "right-arm"}
+    np.testing.assert_array_equal(layout.place, [*layout.feet, *layout.pelvis_height])

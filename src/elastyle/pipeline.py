@@ -45,7 +45,7 @@ from elastyle.model.features import RootPath
 from elastyle.model.file import StyleModel, as_model
 from elastyle.steps.action import (
     action_channels,
-    part_channels,
+    action_layout,
     still_frames,
     walks_backwards,
     walks_sideways,
@@ -229,10 +229,10 @@ def transfer(
         ))  # fmt: skip
     else:
         walk_said = False
-    columns = part_channels(working.skeleton)  # each body part's action columns
-    still = still_frames(actions, working.skeleton, fps)  # (T,) a stop or an idle: no pace to take
+    layout = action_layout(working.skeleton)  # which action columns say what, each body part's
+    still = still_frames(actions, layout, fps)  # (T,) a stop or an idle: no pace to take
     tracks = [
-        style_track(content_latents, actions, library, grid, config, fps, columns, still)
+        style_track(content_latents, actions, library, grid, config, fps, layout, still)
         for library in libraries
     ]
     # retime: strength and shares mix the tracks; the mixed rate gives each output frame's content time
@@ -251,7 +251,7 @@ def transfer(
     part_tracks = []  # (joints, track) of each part styled by another library
     part_latents = []
     for joints, library in by_part:
-        track = style_track(content_latents, actions, library, grid, config, fps, columns, still)
+        track = style_track(content_latents, actions, library, grid, config, fps, layout, still)
         part_latents.append(mix_tracks(content_on_grid, strength, [track], [np.ones_like(grid)])[0])
         part_tracks.append((joints, track))
     # decode on the output's timeline, the root path read at the same content times: the styled latents,

@@ -21,6 +21,9 @@ sides agree with it.
 
 from __future__ import annotations
 
+from itertools import count
+from typing import NamedTuple
+
 import numpy as np
 
 from elastyle.core.body import find_limbs, heading_yaw, leg_length, pelvis_forward_local, yaw_matrices
@@ -38,11 +41,72 @@ TURNING_COLUMN = 2  # the turning rate's column in `action_channels` (after forw
 SMOOTH_S = 0.1  # velocities are low-passed over about this long (sigma 0.4 of it), so noise does not count
 
 
-def action_width(skeleton: Skeleton) -> int:
-    """A, the number of `action_channels` a clip of this skeleton has."""
+class ActionLayout(NamedTuple):
+    """Which columns of a skeleton's `action_channels` (T, A) say what (the module's table).
+
+    travel: (2,) forward and sideways; turning: the turning rate's; hands: (H, 3) each hand's place;
+    hand_speeds: (H,); feet: (F,) each foot's height; pelvis_height: (1,), or (0,) without feet; lean: (3,),
+    or (0,) without a trunk; width: A. parts: each body part's columns, what its action mismatch compares:
+    the legs' travel, turning and feet; the spine's lean; each arm's hand place then speed; arm_hands: each
+    arm part's hand place columns (3,).
+    """
+
+    travel: IntArray
+    turning: int
+    hands: IntArray
+    hand_speeds: IntArray
+    feet: IntArray
+    pelvis_height: IntArray
+    lean: IntArray
+    width: int
+    parts: dict[str, IntArray]
+    arm_hands: dict[str, IntArray]
+
+    @property
+    def legs(self) -> IntArray:
+        """The legs' columns: travel, turning, then each foot's height."""
+        return self.parts["legs"]
+
+    @property
+    def gait(self) -> IntArray:
+        """The legs' columns without the turning: travel and steps (another action, not another path)."""
+        return np.concatenate([self.travel, self.feet])
+
+    @property
+    def place(self) -> IntArray:
+        """Where the legs are: each foot's height and the pelvis's, which follows them; none without feet.
+        The pelvis's height is no part of the legs' mismatch: a column that agrees in every gait diluted it (a
+        walk given a run's style, its legs' mismatch near the threshold, took the run's legs)."""
+        return np.concatenate([self.feet, self.pelvis_height])
+
+
+def action_layout(skeleton: Skeleton) -> ActionLayout:
+    """The `ActionLayout` of a skeleton's `action_channels`."""
     limbs = find_limbs(skeleton)
-    feet = len(limbs.ankles) + (1 if len(limbs.ankles) else 0)  # each foot's height, the pelvis's
-    return 3 + 4 * len(limbs.hands) + feet + (3 if trunk_top(skeleton) is not None else 0)
+    num_hands, num_feet = len(limbs.hands), len(limbs.ankles)
+    columns = count()
+
+    def take(count: int) -> IntArray:
+        return np.array([next(columns) for _ in range(count)], dtype=np.int64)
+
+    travel, turning = take(2), int(take(1)[0])  # TURNING_COLUMN
+    hands, hand_speeds = take(3 * num_hands).reshape(num_hands, 3), take(num_hands)
+    feet, pelvis_height = take(num_feet), take(1 if num_feet else 0)
+    parts_of = body_parts(skeleton)
+    lean = take(3 if trunk_top(skeleton) is not None else 0)
+    width = next(columns)
+    parts = {"legs": np.concatenate([travel, [turning], feet])}
+    if len(lean) and "spine" in parts_of:
+        parts["spine"] = lean
+    arm_hands = {}
+    for name, joints in parts_of.items():
+        for h, hand in enumerate(limbs.hands.tolist()):
+            if hand in joints:
+                parts[name] = np.append(hands[h], hand_speeds[h])
+                arm_hands[name] = hands[h]
+    return ActionLayout(
+        travel, turning, hands, hand_speeds, feet, pelvis_height, lean, width, parts, arm_hands
+    )
 
 
 def trunk_top(skeleton: Skeleton) -> int | None:
@@ -56,7 +120,7 @@ def trunk_top(skeleton: Skeleton) -> int | None:
 
 
 def action_channels(motion: Motion, world: tuple[FloatArray, FloatArray] | None = None) -> FloatArray:
-    """(T, A) action descriptors of a clip (`action_width`; see the module's table). world: the
+    """(T, A) action descriptors of a clip (`action_layout`; see the module's table). world: the
     clip's world rotations and positions (`Motion.world`) of at least the pelvis, hands and ankles, when
     already known."""
     skeleton, limbs, top = motion.skeleton, find_limbs(motion.skeleton), trunk_top(motion.skeleton)
@@ -101,23 +165,6 @@ def carriage(values: FloatArray, height: FloatArray) -> FloatArray:
     return values[np.argsort(height)[-count:]].mean(axis=0)
 
 
-def part_channels(skeleton: Skeleton) -> dict[str, IntArray]:
-    """The columns of `action_channels` that say what each body part does: the legs' travel and turning, then
-    each foot's height; each arm's hand (position x, y, z, then speed); the spine's lean (x, y, z)."""
-    limbs = find_limbs(skeleton)
-    num_hands = len(limbs.hands)
-    feet_end = 3 + 4 * num_hands + len(limbs.ankles)
-    columns = {"legs": [0, 1, 2, *range(3 + 4 * num_hands, feet_end)]}
-    if trunk_top(skeleton) is not None and "spine" in body_parts(skeleton):
-        lean = feet_end + (1 if len(limbs.ankles) else 0)  # after the pelvis's height
-        columns["spine"] = [lean, lean + 1, lean + 2]
-    for name, joints in body_parts(skeleton).items():
-        for h, hand in enumerate(limbs.hands.tolist()):
-            if hand in joints:
-                columns[name] = [3 + 3 * h, 4 + 3 * h, 5 + 3 * h, 3 + 3 * num_hands + h]
-    return {name: np.array(cols, dtype=np.int64) for name, cols in columns.items()}
-
-
 def sustained_turning(actions: FloatArray, clip_starts: IntArray, fps: float) -> FloatArray:
     """(T,) the turning rate (rad/s) of `action_channels` (T, A) low-passed over `TURNING_SMOOTH_S`, clip by
     clip for clips end to end from clip_starts (K,): a walk along a curve, not a step's sway."""
@@ -133,22 +180,11 @@ STILL_LEGS_S = 0.1
 STILL_TURNING = 0.2
 
 
-def still_frames(actions: FloatArray, skeleton: Skeleton, fps: float) -> BoolArray:
-    """(T,) the frames of a clip of `action_channels` (T, A) on `skeleton` at `fps` where the body holds still:
-    a stop or an idle, which has no pace of its own to take a style's."""
-    num_hands = len(find_limbs(skeleton).hands)
-    hand_speeds = actions[:, 3 + 3 * num_hands : 3 + 4 * num_hands]  # (T, H) legs/s
-    legs = part_channels(skeleton)["legs"]
-    return standing_legs(actions, legs, fps) & ~np.any(hand_speeds > STILL_LEGS_S, axis=1)
-
-
-def place_columns(leg_columns: IntArray) -> IntArray:
-    """The columns of `action_channels` that say where the legs are, from the legs' (`part_channels`): each
-    foot's height and the pelvis's, which follows them; none without feet. The pelvis's height is no part
-    of the legs' mismatch: a column that agrees in every gait diluted it (a walk given a run's style, its
-    legs' mismatch near the threshold, took the run's legs)."""
-    feet = leg_columns[3:]
-    return np.append(feet, feet[-1] + 1) if len(feet) else feet
+def still_frames(actions: FloatArray, layout: ActionLayout, fps: float) -> BoolArray:
+    """(T,) the frames of a clip of `action_channels` (T, A) (their `ActionLayout`) at `fps` where the body
+    holds still: a stop or an idle, which has no pace of its own to take a style's."""
+    hand_speeds = actions[:, layout.hand_speeds]  # (T, H) legs/s
+    return standing_legs(actions, layout, fps) & ~np.any(hand_speeds > STILL_LEGS_S, axis=1)
 
 
 # a body travels (walks, runs) where its pelvis moves on faster than this (legs/s), its velocity low-passed over
@@ -159,24 +195,24 @@ TRAVEL_SMOOTH_S = 0.5
 
 
 def travelling_legs(
-    actions: FloatArray, leg_columns: IntArray, clip_starts: IntArray, fps: float
+    actions: FloatArray, layout: ActionLayout, clip_starts: IntArray, fps: float
 ) -> BoolArray:
-    """(T,) the frames of `action_channels` (T, A), clips end to end from clip_starts (K,), where the pelvis
-    travels on faster than `TRAVEL_LEGS_S`; leg_columns: the legs' columns (`part_channels`: travel first)."""
+    """(T,) the frames of `action_channels` (T, A) (their `ActionLayout`), clips end to end from clip_starts
+    (K,), where the pelvis travels on faster than `TRAVEL_LEGS_S`."""
     travel = np.zeros((len(actions), 2))
     for start, end in zip(clip_starts, np.append(clip_starts[1:], len(actions))):
-        travel[start:end] = smooth(actions[start:end, leg_columns[:2]], TRAVEL_SMOOTH_S * fps)
+        travel[start:end] = smooth(actions[start:end, layout.travel], TRAVEL_SMOOTH_S * fps)
     return lengths(travel) > TRAVEL_LEGS_S
 
 
-def standing_legs(actions: FloatArray, leg_columns: IntArray, fps: float) -> BoolArray:
-    """(T,) the frames of `action_channels` (T, A) where the legs stand: the pelvis travels, every foot rises
-    or falls slower than `STILL_LEGS_S` and the body turns slower than `STILL_TURNING`; leg_columns: the
-    legs' columns (`part_channels`: travel, turning, then the feet's heights)."""
+def standing_legs(actions: FloatArray, layout: ActionLayout, fps: float) -> BoolArray:
+    """(T,) the frames of `action_channels` (T, A) (their `ActionLayout`) where the legs stand: the pelvis
+    travels, every foot rises or falls slower than `STILL_LEGS_S` and the body turns slower than
+    `STILL_TURNING`."""
     travel, turning, feet = (
-        actions[:, leg_columns[:2]],
-        actions[:, leg_columns[2]],
-        actions[:, leg_columns[3:]],
+        actions[:, layout.travel],
+        actions[:, layout.turning],
+        actions[:, layout.feet],
     )
     moving = (lengths(travel) > STILL_LEGS_S) | (np.abs(turning) > STILL_TURNING)
     moving |= np.any(np.abs(frame_steps(feet)) * fps > STILL_LEGS_S, axis=1)

@@ -21,7 +21,7 @@ from elastyle.errors import OutputError
 from elastyle.io.dataset import ClipRef, read_up
 from elastyle.io.files import megabytes_from_environment, write_bytes_atomic
 from elastyle.model.file import FORMAT_VERSION, StyleModel
-from elastyle.steps.action import action_width
+from elastyle.steps.action import action_layout
 from elastyle.steps.library import StyleLibrary, prepare_style
 
 log = logging.getLogger(__name__)
@@ -79,7 +79,7 @@ def load_library(
             with np.load(path, allow_pickle=False) as archive:
                 latents, actions = archive["latents"], archive["actions"]
                 if latents.shape[1:] != (model.config.latent_channels,) or actions.shape[1:] != (
-                    action_width(model.skeleton),
+                    action_layout(model.skeleton).width,
                 ):
                     raise ValueError("written by another version")  # read as unreadable: encoded again
                 names = [str(n) for n in archive["names"]]

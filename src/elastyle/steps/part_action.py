@@ -18,12 +18,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from elastyle.core.smoothing import smooth, smoothstep
-from elastyle.steps.action import (
-    TURNING_COLUMN,
-    place_columns,
-    sustained_turning,
-    travelling_legs,
-)
+from elastyle.steps.action import ActionLayout, sustained_turning, travelling_legs
 from elastyle.steps.arms import arm_mismatch, back_and_forth, steady_rhythm
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.library import StyleLibrary
@@ -57,7 +52,7 @@ def part_keeps(
     library: StyleLibrary,
     sequences: tuple[list[Patch], list[Patch]],
     patch_frames: int,
-    part_columns: dict[str, IntArray],
+    layout: ActionLayout | None,
     config: TransferConfig,
     fps: float,
     on_grid: Callable[[FloatArray, FloatArray], FloatArray],
@@ -65,7 +60,7 @@ def part_keeps(
     ease: float,
 ) -> PartKeeps:
     """What each body part does against its matched windows, for content action descriptors (T, A) and the
-    two half-shifted patch sequences; part_columns: each part's action columns (`steps.action`); on_grid:
+    two half-shifted patch sequences; layout: their columns (`steps.action`; None: no parts); on_grid:
     two sequences' per-patch values (P,), (P - 1,) -> (G,) on the grid (G,) as the latents are cross-faded;
     ease: the shares' easing in time, grid steps. Where the legs do another action than the windows (a walk
     matched against a run or a wave, in place a kick or a crouch against a stand), legs and spine keep the
@@ -76,9 +71,10 @@ def part_keeps(
     reads where it keeps the content's action for the legs' sake, not where it leans otherwise (the change
     there is a bow undone, not a carriage)."""
     patches, shifted = sequences
+    parts = {} if layout is None else layout.parts
     mismatch = {
         part: part_mismatch(content_actions, library.actions, patches, patch_frames, columns)
-        for part, columns in part_columns.items()
+        for part, columns in parts.items()
     }
     measures: dict[str, dict[str, FloatArray]] = {}  # per part, each measure's value per patch (P,)
     keep: dict[str, FloatArray] = {}
@@ -86,9 +82,8 @@ def part_keeps(
     posture: dict[str, FloatArray] = {}
     in_place = np.ones_like(grid)  # (G,) where the content does not travel
     in_place_under_travel = np.zeros_like(grid)  # (G,) where the content keeps its place, the windows travel
-    if "legs" in mismatch:
-        leg_columns = part_columns["legs"]
-        shifted_mismatch = part_mismatch(content_actions, library.actions, shifted, patch_frames, leg_columns)
+    if layout is not None:
+        shifted_mismatch = part_mismatch(content_actions, library.actions, shifted, patch_frames, layout.legs)
         # a turning walk matched against straight windows keeps its turn, and the other way round
         content_turning = sustained_turning(content_actions, np.zeros(1, dtype=np.int64), fps)[:, None]
         library_turning = library.derived(
@@ -100,16 +95,15 @@ def part_keeps(
         ]
         # the gait alone (travel and steps without the turning): another action, not another path
         gait = [
-            part_mismatch(content_actions, library.actions, sequence, patch_frames,
-                          leg_columns[leg_columns != TURNING_COLUMN])
+            part_mismatch(content_actions, library.actions, sequence, patch_frames, layout.gait)
             for sequence in (patches, shifted)
-        ]  # fmt: skip
+        ]
         measures["legs"] = {"turning_difference": turning[0], "gait_mismatch": gait[0]}
         one_clip = np.zeros(1, dtype=np.int64)
         travelling = np.interp(
             grid,
             np.arange(len(content_actions)),
-            travelling_legs(content_actions, leg_columns, one_clip, fps),
+            travelling_legs(content_actions, layout, one_clip, fps),
         )
         travelling = np.clip(smooth(travelling, ease), 0.0, 1.0)  # (G,)
         in_place = 1 - travelling
@@ -117,12 +111,11 @@ def part_keeps(
             keep_share(on_grid(mismatch["legs"], shifted_mismatch), config.keep_action_above, ease),
             keep_share(on_grid(*turning), config.legs_turning_above, ease),
         ]
-        heights = place_columns(leg_columns)  # each foot's height, the pelvis's
-        if len(heights):
+        if len(layout.place):  # each foot's height, the pelvis's
             # in place, where the feet and the pelvis are (a kick, a crouch against standing windows): a few
             # columns among the legs' many, they hardly moved their mismatch; a travelling body's are its gait's
             place = [
-                _largest_gap(content_actions, library.actions, sequence, patch_frames, heights)
+                _largest_gap(content_actions, library.actions, sequence, patch_frames, layout.place)
                 for sequence in (patches, shifted)
             ]
             measures["legs"]["place_offset"] = place[0]
@@ -137,8 +130,8 @@ def part_keeps(
         other_action["legs"] = keep_share(on_grid(*gait), config.keep_action_above, ease) * travelling
         # the content keeps to its place, its legs keep its action, and the windows travel
         library_travelling = library.derived(
-            ("travelling", tuple(leg_columns[:2].tolist()), fps),
-            lambda: travelling_legs(library.actions, leg_columns, library.clip_starts, fps)[:, None],
+            ("travelling", tuple(layout.travel.tolist()), fps),
+            lambda: travelling_legs(library.actions, layout, library.clip_starts, fps)[:, None],
         )
         windows_travel = on_grid(
             *(
@@ -147,8 +140,8 @@ def part_keeps(
             )
         )
         in_place_under_travel = share * in_place * np.clip(windows_travel, 0.0, 1.0)
-    if "spine" in part_columns:
-        lean_columns = part_columns["spine"]
+    if "spine" in parts:
+        lean_columns = parts["spine"]
         lean = [
             mean_gap(
                 content_actions[:, lean_columns], library.actions[:, lean_columns], sequence, patch_frames
@@ -161,14 +154,12 @@ def part_keeps(
         leans = keep_share(on_grid(*lean), config.spine_lean_above, ease) * in_place
         keep["spine"] = np.maximum(keep.get("spine", 0.0), leans)
         posture["spine"] = posture.get("spine", np.zeros_like(grid)) * (1 - leans)
-    for part, columns in part_columns.items():
-        if part in ("legs", "spine"):
-            continue
-        content_hand, library_hand = content_actions[:, columns[:3]], library.actions[:, columns[:3]]
+    for part, hand in ({} if layout is None else layout.arm_hands).items():
+        content_hand, library_hand = content_actions[:, hand], library.actions[:, hand]
         one_clip = np.zeros(1, dtype=np.int64)
         content_rhythm = _steady_hand_rhythm(content_hand, one_clip, fps)
         library_rhythm = library.derived(
-            ("rhythm", tuple(columns[:3].tolist()), fps),
+            ("rhythm", tuple(hand.tolist()), fps),
             partial(_steady_hand_rhythm, library_hand, library.clip_starts, fps),
         )
         arm, shifted_arm = (

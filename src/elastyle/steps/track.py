@@ -15,6 +15,7 @@ import numpy as np
 
 from elastyle.core.resample import interpolate_rows
 from elastyle.errors import ClipTooShortError
+from elastyle.steps.action import ActionLayout
 from elastyle.steps.config import TransferConfig
 from elastyle.steps.library import StyleLibrary, match_frames
 from elastyle.steps.part_action import eased, part_keeps
@@ -110,11 +111,11 @@ def style_track(
     grid: FloatArray,
     config: TransferConfig,
     fps: float,
-    part_columns: dict[str, IntArray] | None = None,
+    layout: ActionLayout | None = None,
     still: BoolArray | None = None,
 ) -> StyleTrack:
     """The track of one library for content latents (T, Z) and action descriptors (T, A) on grid times
-    (G,) in content frames; part_columns: the action columns of each body part (`steps.action`); still:
+    (G,) in content frames; layout: the action descriptors' columns (`steps.action`; None: no parts); still:
     (T,) content frames where the body holds still, read unstretched (`search.search_sequential`)."""
     content_stats = LatentStats.of([content_latents])
     if config.method in ("wct", "adain"):
@@ -152,13 +153,12 @@ def style_track(
 
     content_frames = match_frames(white_content, content_actions, config.action_weight)
     lengths = config.source_lengths(patch_frames, fps)
-    guard = side_guard(content_actions, library, patch_frames, part_columns or {})
+    guard = side_guard(content_actions, library, patch_frames, layout)
     patches = search(content_frames, windows, lengths, guard)
     if config.stretch_centre == "tempo" and config.placement == "sequential":  # a pace beyond the first range
-        leg_columns = (part_columns or {}).get("legs", np.zeros(0, dtype=np.int64))
         patches = searched_about_tempo(
             partial(search, content_frames, windows, guard=guard), patches, content_actions, library.actions,
-            config, patch_frames, fps, leg_columns,
+            config, patch_frames, fps, np.zeros(0, np.int64) if layout is None else layout.legs,
         )  # fmt: skip
     shifted = half_shifted(content_frames, windows, patches, guard)
     # place and cross-fade: each grid time reads both sequences' style windows, weighted by a triangle
@@ -189,7 +189,7 @@ def style_track(
         return (weight_a * cover_a.values(values) + weight_b * cover_b.values(shifted_values)) / total
 
     parts = part_keeps(
-        content_actions, library, (patches, shifted), patch_frames, part_columns or {}, config, fps, on_grid,
+        content_actions, library, (patches, shifted), patch_frames, layout, config, fps, on_grid,
         grid, ease,
     )  # fmt: skip
     if "legs" in parts.keep:
@@ -200,13 +200,14 @@ def style_track(
 
 
 def side_guard(
-    content_actions: FloatArray, library: StyleLibrary, patch_frames: int, part_columns: dict[str, IntArray]
+    content_actions: FloatArray, library: StyleLibrary, patch_frames: int, layout: ActionLayout | None
 ) -> SideGuard | None:
-    """The `SideGuard` for a content (actions (T, A)) against a library with mirrored clips, from each arm's
-    hand columns (`steps.action.part_channels`); None without mirrored clips or without both arms."""
-    if not any(library.mirrored) or not {"left-arm", "right-arm"} <= part_columns.keys():
+    """The `SideGuard` for a content (actions (T, A), their `ActionLayout`) against a library with mirrored
+    clips, from each arm's hand place; None without mirrored clips, a layout or both arms."""
+    hands = {} if layout is None else layout.arm_hands
+    if not any(library.mirrored) or not {"left-arm", "right-arm"} <= hands.keys():
         return None
-    left, right = part_columns["left-arm"][:3], part_columns["right-arm"][:3]
+    left, right = hands["left-arm"], hands["right-arm"]
 
     def library_sides() -> tuple[FloatArray, BoolArray]:
         sides = library.actions[:, left] - library.actions[:, right]  # (N_frames, 3) legs
