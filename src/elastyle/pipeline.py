@@ -38,6 +38,7 @@ from elastyle.core.ground import ground_level, has_feet, raised
 from elastyle.core.motion import Motion, check_finite_clip, leading_pose_note
 from elastyle.core.parts import body_parts, joint_set, parse_parts, part_joints, sides_guessed
 from elastyle.core.resample import interpolate_rows
+from elastyle.core.roots import root_carries_pelvis, root_motion_joint
 from elastyle.core.threads import one_blas_thread
 from elastyle.errors import ClipTooShortError, ConfigError, ResultError
 from elastyle.model.depth import depth_warning, reconstruction_error_cm
@@ -405,7 +406,12 @@ def transfer(
         translations[exact] = given_at.translations[exact]
         translations[:, kept] = given_at.translations[:, kept]
         motion = Motion(given.skeleton, motion.rotations, translations, motion.fps)
-    motion = model.on_clip_hierarchy(motion, frames_of(original, content_frames))  # on the content's skeleton
+    original_at = frames_of(original, content_frames)
+    motion = model.on_clip_hierarchy(motion, original_at)  # on the content's skeleton
+    # a root-motion joint above the pelvis (a game rig's) carries the pelvis's new place, as in the content
+    root_joint = root_motion_joint(original)
+    if root_joint is not None:
+        motion = root_carries_pelvis(motion, original_at, root_joint)
     record["output_frames"] = motion.num_frames  # as written, at the content's frame rate
     record["output_fps"] = motion.fps
     record["content_reconstruction_cm"] = round(error_cm, 3)

@@ -5,6 +5,8 @@ those joints added at rest, and the output is written without them, on the clip'
     with_added_roots      the clip on the model's hierarchy (None where it is not the model's less its roots)
     without_added_roots   a clip on that hierarchy back on the clip's own skeleton
     in_world, below       a joint's local transform below another joint, in the world, and back
+    moved_joints          which joints leave their rest offsets (they need position channels)
+    root_carries_pelvis   an output's change to the pelvis's place carried by a root-motion joint above it
 """
 
 from __future__ import annotations
@@ -76,3 +78,64 @@ def below(
     inverse = np.swapaxes(world_rotations[:, above], -1, -2)  # (T, 3, 3)
     local = np.einsum("tij,tj->ti", inverse, translation - world_positions[:, above])
     return from_matrix(inverse @ to_matrix(rotation)), local
+
+
+# a joint whose translations stay this close to its offset (a share of the rig's size) has not moved
+MOVED_OF_SIZE = 1e-3
+
+
+def moved_joints(motion: Motion, joints: list[int]) -> list[int]:
+    """Those of `joints` whose local translation leaves its rest offset in some frame by more than
+    `MOVED_OF_SIZE` of the rig's size: a joint that moves (a root-motion joint, a pelvis with position
+    channels). A mirrored clip's joints take the other side's offsets, which a captured rig's slight asymmetry
+    leaves up to 0.4 mm apart (the dataset's legs): within the tolerance they have not moved."""
+    if not joints or not motion.num_frames:
+        return []
+    away = np.abs(motion.translations[:, joints] - motion.skeleton.offsets[joints])  # (T, K, 3)
+    rest = motion.skeleton.rest_positions()
+    tolerance = max(1e-6, MOVED_OF_SIZE * float(np.max(np.ptp(rest, axis=0))))
+    return [joint for joint, moves in zip(joints, np.any(away > tolerance, axis=(0, 2))) if moves]
+
+
+def root_motion_joint(content: Motion) -> int | None:
+    """The joint above the pelvis, nearest it, whose translation moves in the clip (`moved_joints`): a game
+    rig's root-motion joint carrying the ground path; None where every joint above the pelvis stays put."""
+    skeleton = content.skeleton
+    above = []  # the joints above the pelvis, nearest first
+    joint = int(skeleton.parents[skeleton.pelvis])
+    while joint >= 0:
+        above.append(joint)
+        joint = int(skeleton.parents[joint])
+    movers = moved_joints(content, above)
+    return movers[0] if movers else None
+
+
+def root_carries_pelvis(motion: Motion, content_at: Motion, root: int) -> Motion:
+    """An output (T frames, +Y up) whose content moves `root`, a joint above the pelvis (`root_motion_joint`):
+    the change the transfer made to the pelvis's place (the foot clean-up's root following the stride), taken
+    from the pelvis's local translation into the root's, so the root goes along with the body instead of
+    staying on the content's path. All of it where the content's pelvis does not move of its own (a rig whose
+    root carries every translation: the output keeps the file's channels), else its horizontal part (the root
+    stays on the ground). No joint's world place changes. content_at: the content at the output's T moments,
+    on the same skeleton."""
+    skeleton = motion.skeleton
+    pelvis = skeleton.pelvis
+    parent = int(skeleton.parents[pelvis])
+    turn = motion.world([parent])[0][:, parent]  # (T, 3, 3) the pelvis's parent in the world
+    change = np.einsum(
+        "tij,tj->ti", turn, motion.translations[:, pelvis] - content_at.translations[:, pelvis]
+    )  # (T, 3) the pelvis's change of place, world
+    own_moves = bool(moved_joints(content_at, [pelvis]))
+    if own_moves:
+        change[:, 1] = 0.0
+    translations = motion.translations.copy()
+    over_root = int(skeleton.parents[root])
+    if over_root < 0:  # the top root: its translation is in the world
+        translations[:, root] += change
+    else:  # in its parent's frame
+        translations[:, root] += np.einsum("tji,tj->ti", motion.world([over_root])[0][:, over_root], change)
+    if own_moves:
+        translations[:, pelvis] -= np.einsum("tji,tj->ti", turn, change)
+    else:
+        translations[:, pelvis] = content_at.translations[:, pelvis]
+    return Motion(skeleton, motion.rotations, translations, motion.fps)

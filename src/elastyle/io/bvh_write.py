@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from elastyle.core.motion import Motion
+from elastyle.core.roots import moved_joints
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.up import turned_back
 from elastyle.errors import BvhError, SkeletonMismatchError, UsageError
@@ -83,10 +84,6 @@ def _animated_joints(motion: Motion) -> list[int]:
     return [joint + 1 for joint in np.flatnonzero(np.any(away > 1e-9, axis=(0, 2))).tolist()]
 
 
-# joints whose translations stay this close to their offsets (a share of the rig's size) stay unplaced
-PLACED_OF_SIZE = 1e-3
-
-
 def placed_layout(motion: Motion, layout: BvhLayout) -> tuple[BvhLayout, list[int]]:
     """`layout` with position channels added (before its rotation channels) to each joint that moves in the
     clip but has none there, and those joints: a file whose root-motion joint above the pelvis carries the
@@ -97,12 +94,7 @@ def placed_layout(motion: Motion, layout: BvhLayout) -> tuple[BvhLayout, list[in
     ]
     if not unplaced:  # every joint has position channels (the common case): nothing to look at
         return layout, []
-    away = np.abs(motion.translations[:, unplaced] - motion.skeleton.offsets[unplaced])  # (T, U, 3)
-    # a mirrored clip's joints take the other side's offsets, which a captured rig's slight asymmetry leaves
-    # up to 0.4 mm apart (the dataset's legs): within a thousandth of the rig's size they stay unplaced
-    rest = motion.skeleton.rest_positions()
-    tolerance = max(1e-6, PLACED_OF_SIZE * float(np.max(np.ptp(rest, axis=0))))
-    missing = [joint for joint, moves in zip(unplaced, np.any(away > tolerance, axis=(0, 2))) if moves]
+    missing = moved_joints(motion, unplaced)
     if not missing:
         return layout, []
     channels = [

@@ -30,6 +30,7 @@ from elastyle.core.rotations import (
     matrix_to_quat,
     multiply,
     quat_multiply,
+    slerp_resample,
     to_matrix,
     to_quat,
 )
@@ -196,12 +197,10 @@ class RootPath(NamedTuple):
         def blend(values: FloatArray) -> FloatArray:
             return interpolate_rows(values, frame_times)
 
-        # joints above the pelvis hardly move (a static origin on most rigs): nearest frame is enough
-        nearest = np.rint(frame_times).astype(np.int64)
         return RootPath(
             blend(self.path),
             blend(self.yaw),
-            self.above_rotations[nearest],
+            slerp_resample(self.above_rotations, frame_times),  # a root-motion joint turns with the heading
             blend(self.above_translations),
             blend(self.joint_translations),
         )
