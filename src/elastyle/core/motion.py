@@ -41,8 +41,8 @@ class Motion:
             raise ValueError(
                 f"translations must match rotations {self.rotations.shape}, got {self.translations.shape}"
             )
-        if not self.fps > 0:
-            raise ValueError(f"fps must be positive, got {self.fps}")
+        if not (self.fps > 0 and np.isfinite(self.fps)):
+            raise ValueError(f"fps must be a positive finite number, got {self.fps}")
 
     def __repr__(self) -> str:
         return f"Motion({self.num_frames} frames at {self.fps:g} fps, {self.skeleton!r})"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
@@ -46,13 +47,36 @@ class Skeleton:
     unit_cm: float | None = None
 
     def __post_init__(self) -> None:
+        # lists of names and numbers as a tuple and arrays, as `Motion` takes lists
+        object.__setattr__(self, "names", tuple(self.names))
+        object.__setattr__(self, "offsets", np.asarray(self.offsets, dtype=np.float64))
+        parents = np.asarray(self.parents)
+        if parents.dtype.kind not in "iu":
+            whole = parents.dtype.kind == "f" and np.all(
+                np.isfinite(parents) & (parents == np.round(parents))
+            )
+            if not whole:
+                raise ValueError(f"parents must be joint indices (integers), got {parents.dtype} values")
+        object.__setattr__(self, "parents", parents.astype(np.int64))
         num_joints = len(self.names)
+        if not all(isinstance(name, str) for name in self.names):
+            raise ValueError("joint names must be strings")
+        repeated = [name for name, count in Counter(self.names).items() if count > 1]
+        if repeated:
+            raise ValueError(
+                f"joint names must be unique: {repeated[0]!r} names {Counter(self.names)[repeated[0]]} joints"
+            )
         if self.parents.shape != (num_joints,):
             raise ValueError(f"parents must be ({num_joints},), got {self.parents.shape}")
         if self.offsets.shape != (num_joints, 3):
             raise ValueError(f"offsets must be ({num_joints}, 3), got {self.offsets.shape}")
         if num_joints and (self.parents[0] != -1 or np.any(self.parents[1:] >= np.arange(1, num_joints))):
             raise ValueError("parents must satisfy parents[0] == -1 and parents[j] < j")
+        if not np.all(np.isfinite(self.offsets)):
+            joint = int(np.flatnonzero(~np.all(np.isfinite(self.offsets), axis=1))[0])
+            raise ValueError(
+                f"offsets must be finite numbers: joint {self.names[joint]!r} has {self.offsets[joint]}"
+            )
         if self.end_sites.shape != (num_joints, 3):
             object.__setattr__(self, "end_sites", np.full((num_joints, 3), np.nan))
 

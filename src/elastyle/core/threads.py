@@ -1,11 +1,17 @@
 """Deterministic numbers: elastyle's products run on one BLAS thread, so a transfer gives the same bytes
 whatever thread count the machine or the user's environment sets (a multi-threaded BLAS sums in another
 order, which moves values near 1e-4 after the decoder). Batches use processes for parallelism instead, and
-`stop_workers` ends them at once on Ctrl-C or a kill."""
+`stop_workers` ends them at once on Ctrl-C or a kill.
+
+BLAS's thread limit is the whole process's, so calls made from several of a user's threads run one at a time:
+overlapping, they fought over it (a call ran on two BLAS threads, its output off by 1e-7, and the limit of one
+stayed on the process after the last call ended).
+"""
 
 from __future__ import annotations
 
 import multiprocessing
+import threading
 from collections.abc import Callable
 from concurrent.futures import Executor
 from functools import cache, wraps
@@ -13,6 +19,7 @@ from typing import ParamSpec, TypeVar
 
 from threadpoolctl import ThreadpoolController
 
+_ONE_CALL_AT_A_TIME = threading.RLock()  # a call may call another (a transfer prepares its style)
 Params = ParamSpec("Params")
 Result = TypeVar("Result")
 
@@ -25,11 +32,12 @@ def _controller() -> ThreadpoolController:
 
 
 def one_blas_thread(function: Callable[Params, Result]) -> Callable[Params, Result]:
-    """Run `function` with the BLAS libraries limited to one thread (restored afterwards)."""
+    """Run `function` with the BLAS libraries limited to one thread (restored afterwards), one call at a time
+    in the process."""
 
     @wraps(function)
     def limited(*args: Params.args, **kwargs: Params.kwargs) -> Result:
-        with _controller().limit(limits=1, user_api="blas"):
+        with _ONE_CALL_AT_A_TIME, _controller().limit(limits=1, user_api="blas"):
             return function(*args, **kwargs)
 
     return limited

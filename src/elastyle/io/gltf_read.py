@@ -86,6 +86,9 @@ def parse_glb(data: bytes, name: str) -> Motion:
         else:
             translations[:, joint] = values
     names = tuple(node.name or f"joint{j}" for j, node in enumerate(nodes))
+    repeated = next((joint for j, joint in enumerate(names) if joint in names[:j]), None)
+    if repeated is not None:
+        raise BvhError(name, f"duplicate joint name {repeated!r}")
     end_sites = np.full((len(joints), 3), np.nan)
     for j, node in enumerate(nodes):  # a child node outside the skin: an End Site (as io.gltf_write writes)
         leaves = [c for c in node.children or [] if c not in index]

@@ -17,7 +17,7 @@ import numpy as np
 from elastyle.core.mirror import mirror
 from elastyle.core.motion import Motion, check_finite_clip, leading_pose_note
 from elastyle.core.threads import one_blas_thread
-from elastyle.errors import ConfigError, ElastyleError, SkeletonMismatchError
+from elastyle.errors import ClipTooShortError, ConfigError, SkeletonMismatchError
 from elastyle.model.file import StyleModel, as_model
 from elastyle.steps.action import action_channels
 from elastyle.steps.search import StyleWindows
@@ -132,6 +132,8 @@ def prepare_style(
     names = _named_clips(names, len(motions))
     for name, motion in zip(names, motions):  # every clip checked before any is encoded
         check_finite_clip(motion, name)
+        if motion.num_frames == 0:
+            raise ClipTooShortError(f"{name}: a style clip without frames")
     clips: list[tuple[str, bool, Motion]] = []
     for name, motion in zip(names, motions):
         model.check_clip(motion, name)
@@ -231,7 +233,7 @@ def check_prepared(library: StyleLibrary, model: StyleModel, mirror_style: bool,
 def _check_style_clips(motions: Sequence[Motion]) -> None:
     """An `ElastyleError` without clips, a `TypeError` naming what was given where a clip belongs."""
     if not motions:
-        raise ElastyleError("no style clips given")
+        raise ConfigError("no style clips given")
     for motion in motions:
         if not isinstance(motion, Motion):
             raise TypeError(
