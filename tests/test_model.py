@@ -273,7 +273,8 @@ def test_ctrl_c_while_the_clips_load_ends_training_cleanly(tmp_path: Path, datas
         time.sleep(delay)
         os.killpg(process.pid, signal.SIGINT)  # as a terminal's Ctrl-C does
         _, stderr = process.communicate(timeout=60)
-        assert process.returncode == 130, (delay, stderr)
+        # 130 from elastyle's handler; a Ctrl-C before the interpreter has set one up ends it by the signal
+        assert process.returncode in (130, -signal.SIGINT), (delay, stderr)
         assert "Traceback" not in stderr and "internal error" not in stderr and "cache_hits" not in stderr, (
             stderr
         )
