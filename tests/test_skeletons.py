@@ -719,17 +719,31 @@ def test_a_renamed_skeleton_whose_sides_or_rest_pose_differ_is_refused(walk: Mot
     )
     turned = skeleton.offsets.copy()
     turned[2:] = turned[2:, [1, 0, 2]]  # every bone above the pelvis along another axis at rest: a T-pose
-    for other in (
-        Skeleton(swapped, skeleton.parents, skeleton.offsets, skeleton.end_sites),
-        Skeleton(skeleton.names, skeleton.parents, turned, skeleton.end_sites),
-    ):
-        clip = Motion(other, walk.rotations, walk.translations, walk.fps)
-        with pytest.raises(SkeletonMismatchError, match="skeleton differs from the model"):
-            transfer(clip, clip, model=load_model())
-    # under the model's own names, another rest pose is refused too
+    sides_swapped = Motion(
+        Skeleton(swapped, skeleton.parents, skeleton.offsets, skeleton.end_sites), walk.rotations,
+        walk.translations, walk.fps,
+    )  # fmt: skip
+    with pytest.raises(SkeletonMismatchError, match="skeleton differs from the model"):
+        transfer(sides_swapped, sides_swapped, model=load_model())
+    # another rest pose is said to be one, under other names, the model's own and without the static root
+    # (before, a renamed one listed every joint as only in the clip or the model, and one without its root
+    # blamed the missing root, which other clips may lack)
+    turned_renamed = Motion(
+        Skeleton(skeleton.names, skeleton.parents, turned, skeleton.end_sites), walk.rotations, walk.translations,
+        walk.fps,
+    )  # fmt: skip
     turned_own = Motion(replace(walk.skeleton, offsets=turned), walk.rotations, walk.translations, walk.fps)
-    with pytest.raises(SkeletonMismatchError, match="another rest pose"):
-        transfer(turned_own, walk, model=load_model())
+    for clip, said in (
+        (turned_renamed, "the model's skeleton under other joint names, but another rest pose"),
+        (turned_own, "the model's joints, but another rest pose"),
+        (_without_root(turned_own), "the model's skeleton, but another rest pose"),
+        (
+            _without_root(turned_renamed),
+            "the model's skeleton under other joint names, but another rest pose",
+        ),
+    ):
+        with pytest.raises(SkeletonMismatchError, match=said):
+            transfer(clip, walk, model=load_model())
 
 
 def _without_toes(motion: Motion) -> Motion:

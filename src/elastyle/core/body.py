@@ -202,11 +202,11 @@ def _ankle(skeleton: Skeleton, hip: int, toe: int) -> int:
 BONE_DIRECTION_DEGREES = 20.0  # a renamed skeleton's bones point the same way at rest, within this
 
 
-def same_structure(reference: Skeleton, other: Skeleton) -> bool:
+def same_structure(reference: Skeleton, other: Skeleton, rest_pose: bool = True) -> bool:
     """Whether `other` is `reference` under other joint names: the same hierarchy, its legs and arms found at
-    the same joints on the same sides (whatever the naming scheme), and every bone below the pelvis pointing
-    the same way at rest within `BONE_DIRECTION_DEGREES` (local rotations mean the same pose only about the
-    same rest pose; sizes may differ)."""
+    the same joints on the same sides (whatever the naming scheme), and (unless `rest_pose` is False) every
+    bone below the pelvis pointing the same way at rest within `BONE_DIRECTION_DEGREES` (local rotations mean
+    the same pose only about the same rest pose; sizes may differ)."""
     if reference.num_joints != other.num_joints or not np.array_equal(reference.parents, other.parents):
         return False
     ours, theirs = find_limbs(reference), find_limbs(other)
@@ -218,7 +218,7 @@ def same_structure(reference: Skeleton, other: Skeleton) -> bool:
     both_sided = (reference.sides() != 0) & (other.sides() != 0)
     if np.any(reference.sides()[both_sided] != other.sides()[both_sided]):
         return False
-    return same_rest_pose(reference, other)
+    return same_rest_pose(reference, other) if rest_pose else True
 
 
 def same_rest_pose(reference: Skeleton, other: Skeleton) -> bool:

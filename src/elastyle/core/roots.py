@@ -20,12 +20,12 @@ from elastyle.core.skeleton import Skeleton, bare_name
 from elastyle.types import FloatArray
 
 
-def with_added_roots(model: Skeleton, motion: Motion) -> Motion | None:
+def with_added_roots(model: Skeleton, motion: Motion, rest_pose: bool = True) -> Motion | None:
     """The clip on the model's hierarchy where its skeleton is the model's without the model's first k
     joints, a chain above the clip's root and above the model's pelvis (below it the same hierarchy and
-    rest pose, under the same names, the same in another namespace, or others: `core.body.same_structure`):
-    those joints added at the origin under the model's names, unrotated and without offsets, so every joint
-    of the clip stays where it was. None for any other skeleton."""
+    rest pose, unless `rest_pose` is False, under the same names, the same in another namespace, or others:
+    `core.body.same_structure`): those joints added at the origin under the model's names, unrotated and
+    without offsets, so every joint of the clip stays where it was. None for any other skeleton."""
     clip = motion.skeleton
     added = model.num_joints - clip.num_joints
     if added <= 0 or added > model.pelvis:
@@ -41,7 +41,11 @@ def with_added_roots(model: Skeleton, motion: Motion) -> Motion | None:
     )  # fmt: skip
     # the same names, in a namespace or not
     alike = list(map(bare_name, clip.names)) == list(map(bare_name, model.names[added:]))
-    if not (same_rest_pose(model, skeleton) if alike else same_structure(model, skeleton)):
+    if not (
+        (same_rest_pose(model, skeleton) or not rest_pose)
+        if alike
+        else same_structure(model, skeleton, rest_pose)
+    ):
         return None
     frames = motion.num_frames
     rotations = np.concatenate([np.zeros((frames, added, 3)), motion.rotations], axis=1)

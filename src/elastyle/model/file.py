@@ -208,11 +208,7 @@ class StyleModel:
         if self.skeleton.same_as(motion.skeleton):
             if same_rest_pose(self.skeleton, motion.skeleton):
                 return None
-            raise SkeletonMismatchError(
-                f"{what}: the model's joints, but another rest pose (its bones point other ways at rest, so its "
-                "rotations mean other poses): export it in the model's rest pose, or train a model on its clips "
-                "with 'elastyle train CLIPS -o model.npz --recipe shipped --minutes 20' and pass it with --model"
-            )
+            raise _rest_pose_error(what, "the model's joints")
         if same_structure(self.skeleton, motion.skeleton):
             renamed = next(
                 (theirs, ours)
@@ -241,6 +237,16 @@ class StyleModel:
                 self._check(rooted, what),  # under other names too
                 what,
             )
+        # the model's hierarchy under other names, or without its static root, but bones pointing other ways
+        posed = with_added_roots(self.skeleton, motion, rest_pose=False) or motion
+        if same_structure(self.skeleton, posed.skeleton, rest_pose=False) or (
+            posed is not motion and self.skeleton.same_as(posed.skeleton)
+        ):
+            raise _rest_pose_error(
+                what,
+                "the model's skeleton"
+                + (" under other joint names" if not self.skeleton.same_as(posed.skeleton) else ""),
+            )
         try:
             self.skeleton.check_same(motion.skeleton, "the model", what)
         except SkeletonMismatchError as error:
@@ -256,6 +262,16 @@ _REST_TURNS: weakref.WeakKeyDictionary[
     Skeleton, weakref.WeakKeyDictionary[Skeleton, tuple[FloatArray | None]]
 ]
 _REST_TURNS = weakref.WeakKeyDictionary()
+
+
+def _rest_pose_error(what: str, skeleton: str) -> SkeletonMismatchError:
+    """The error for a clip of the model's hierarchy (`skeleton` says how: its joints, under other names)
+    whose bones point other ways at rest."""
+    return SkeletonMismatchError(
+        f"{what}: {skeleton}, but another rest pose (its bones point other ways at rest, so its rotations mean "
+        "other poses): export it in the model's rest pose, or train a model on its clips with 'elastyle train "
+        "CLIPS -o model.npz --recipe shipped --minutes 20' and pass it with --model"
+    )
 
 
 def _also(note: str, other: str | None, what: str) -> str:
