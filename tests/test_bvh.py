@@ -84,6 +84,16 @@ def test_a_file_is_written_with_its_line_endings_encoding_frame_time_and_offsets
     assert bvh_bytes(*parse_bvh(b"\xef\xbb\xbf" + THREE_CHANNEL_BVH.encode(), "bom.bvh")).startswith(
         b"\xef\xbb\xbfHIER"
     )
+    # UTF-16 with its byte-order mark, either byte order (was refused as binary data): written UTF-16 too
+    for order in ("utf-16-le", "utf-16-be"):
+        mark = b"\xff\xfe" if order.endswith("le") else b"\xfe\xff"
+        wide, wide_layout = parse_bvh(mark + THREE_CHANNEL_BVH.encode(order), "wide.bvh")
+        np.testing.assert_array_equal(
+            wide.rotations, parse_bvh(THREE_CHANNEL_BVH.encode(), "x.bvh")[0].rotations
+        )
+        assert bvh_bytes(wide, wide_layout).decode("utf-16") == bvh_text(wide, wide_layout)
+    with pytest.raises(BvhError, match="marked as UTF-16 text, but not readable as such"):
+        parse_bvh(b"\xff\xfe" + THREE_CHANNEL_BVH.encode("utf-16-le")[:-1] + b"\x00\xd8", "odd.bvh")
     for own in ("0.016667", "0.008333"):  # six decimals, read as 60 and 120 fps
         six = parse_bvh(
             re.sub(r"Frame Time:\s*\S+", f"Frame Time: {own}", THREE_CHANNEL_BVH).encode(), "six.bvh"

@@ -71,12 +71,20 @@ def parse_bvh(data: bytes, name: str) -> tuple[Motion, BvhLayout]:
             ": name one clip inside it (ARCHIVE.zip/folder/clip.bvh)" if name.lower().endswith(".zip") else ""
         )
         raise BvhError(name, f"a zip archive, not a BVH file{inside}")
-    if b"\x00" in data[:4096]:
+    if data.startswith(
+        (b"\xff\xfe", b"\xfe\xff")
+    ):  # UTF-16 with its byte-order mark (PowerShell's '>' writes it)
+        try:
+            text, encoding = data.decode("utf-16"), "utf-16"
+        except UnicodeDecodeError:
+            raise BvhError(name, "marked as UTF-16 text, but not readable as such") from None
+    elif b"\x00" in data[:4096]:
         raise BvhError(name, "binary data, not a BVH text file")
-    try:
-        text, encoding = data.decode("utf-8"), "utf-8"
-    except UnicodeDecodeError:
-        text, encoding = data.decode("latin-1"), "latin-1"
+    else:
+        try:
+            text, encoding = data.decode("utf-8"), "utf-8"
+        except UnicodeDecodeError:
+            text, encoding = data.decode("latin-1"), "latin-1"
     if text.startswith("\ufeff"):  # a UTF-8 byte-order mark, as some Windows tools write: kept when written
         text, encoding = text[1:], "utf-8-sig"
     lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
