@@ -68,6 +68,28 @@ def test_tabs_crlf_and_spaces_are_accepted() -> None:
     assert motion.num_frames == 3
 
 
+def test_blank_lines_between_frames_are_read_past() -> None:
+    """As other BVH readers do (they were refused as an empty row); a blank line where a frame is missing is
+    still the error, on its own line."""
+    lines = THREE_CHANNEL_BVH.splitlines()
+    first = next(i for i, line in enumerate(lines) if line.startswith("Frame Time")) + 1
+    spaced = lines[: first + 1] + ["", "  "] + lines[first + 1 : first + 2] + [""] + lines[first + 2 :]
+    motion, _ = parse_bvh("\n".join(spaced).encode(), "spaced.bvh")
+    np.testing.assert_array_equal(
+        motion.rotations, parse_bvh(THREE_CHANNEL_BVH.encode(), "x.bvh")[0].rotations
+    )
+    missing = (
+        lines[: first + 1] + [""] + lines[first + 2 :]
+    )  # the second frame gone, a blank line in its place
+    with pytest.raises(BvhError, match=f"missing.bvh:{first + 2}: empty row"):
+        parse_bvh("\n".join(missing).encode(), "missing.bvh")
+    bad = (
+        lines[: first + 1] + [""] + lines[first + 1 : first + 2] + [" ".join(["0"] * 20 + ["nan"])]
+    )  # a bad value after a blank
+    with pytest.raises(BvhError, match=f"bad.bvh:{first + 4}: NaN or infinite value"):
+        parse_bvh("\n".join(bad).encode(), "bad.bvh")
+
+
 def test_a_file_is_written_with_its_line_endings_encoding_frame_time_and_offsets() -> None:
     # a Windows tool's file came back with Unix line endings, its Frame Time 0.00833333 as 0.0083333 (120.0005 fps)
     # and its offsets at six significant digits (111.97668 as 111.977)

@@ -261,23 +261,28 @@ def _parse_motion(reader: _Lines, num_channels: int) -> tuple[FloatArray, float]
     rows = reader.lines[reader.index :]
     while rows and not rows[-1].strip():
         rows.pop()
+    row_lines = list(range(first_row_line, first_row_line + max(len(rows), 1)))  # each row's line number
+    if len(rows) != num_frames and sum(1 for row in rows if row.strip()) == num_frames:
+        # blank lines between frames (an editor's or a script's), read past as other BVH readers do
+        row_lines = [line for line, row in zip(row_lines, rows) if row.strip()]
+        rows = [row for row in rows if row.strip()]
     if len(rows) != num_frames:
-        _raise_row_problem(path, rows, first_row_line, num_frames, num_channels)
+        _raise_row_problem(path, rows, row_lines, num_frames, num_channels)
     try:
         # numpy's C reader: faster than float() on split tokens; raises on a bad token or a row of another
         # length, and it skips blank rows (caught by the shape check)
         values = np.loadtxt(rows, dtype=np.float64, comments=None, ndmin=2)
     except ValueError:
-        values = _values_token_by_token(path, rows, first_row_line, num_channels)
+        values = _values_token_by_token(path, rows, row_lines, num_channels)
     if values.shape != (num_frames, num_channels):
-        _raise_row_problem(path, rows, first_row_line, num_frames, num_channels)
+        _raise_row_problem(path, rows, row_lines, num_frames, num_channels)
     if not np.all(np.isfinite(values)):
         row = int(np.flatnonzero(~np.all(np.isfinite(values), axis=1))[0])
-        raise BvhError(path, "NaN or infinite value in frame data", first_row_line + row)
+        raise BvhError(path, "NaN or infinite value in frame data", row_lines[row])
     beyond = np.abs(values) > LARGEST_VALUE
     if np.any(beyond):
         row = int(np.flatnonzero(np.any(beyond, axis=1))[0])
-        raise BvhError(path, f"value beyond {LARGEST_VALUE:g} in frame data", first_row_line + row)
+        raise BvhError(path, f"value beyond {LARGEST_VALUE:g} in frame data", row_lines[row])
     return values, frame_time_s
 
 
@@ -289,25 +294,27 @@ def _row_problem(row: str, num_channels: int) -> str | None:
 
 
 def _raise_row_problem(
-    path: str, rows: list[str], first_line: int, num_frames: int, num_channels: int
+    path: str, rows: list[str], row_lines: list[int], num_frames: int, num_channels: int
 ) -> None:
-    for row_index, row in enumerate(rows):
+    """The `BvhError` for frame rows (each on its line of `row_lines`) that do not make the frames: the first
+    row without the hierarchy's channel count, else the count of rows against the Frames line's."""
+    for row, line in zip(rows, row_lines):
         problem = _row_problem(row, num_channels)
         if problem:
-            raise BvhError(path, problem, first_line + row_index)
+            raise BvhError(path, problem, line)
     hint = "truncated?" if len(rows) < num_frames else "more rows than the Frames line counts"
-    raise BvhError(path, f"'Frames: {num_frames}' but {len(rows)} rows of frame data ({hint})", first_line)
+    raise BvhError(path, f"'Frames: {num_frames}' but {len(rows)} rows of frame data ({hint})", row_lines[0])
 
 
-def _values_token_by_token(path: str, rows: list[str], first_line: int, num_channels: int) -> FloatArray:
+def _values_token_by_token(path: str, rows: list[str], row_lines: list[int], num_channels: int) -> FloatArray:
     """Frame values (T, C) read with Python's float(), after numpy's reader refused them: the first bad
     row or token gets its error, and spellings float() accepts but numpy does not (such as '1_000') load."""
     values = []
-    for row_index, row in enumerate(rows):
+    for row, line in zip(rows, row_lines):
         problem = _row_problem(row, num_channels)
         if problem:
-            raise BvhError(path, problem, first_line + row_index)
-        values.append([_parse_float(path, token, first_line + row_index) for token in row.split()])
+            raise BvhError(path, problem, line)
+        values.append([_parse_float(path, token, line) for token in row.split()])
     return np.array(values, dtype=np.float64)
 
 
