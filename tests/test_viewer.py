@@ -320,8 +320,8 @@ def test_the_page_on_port_80_is_served_to_a_browser_and_asks_for_no_icon(
     assert fetch(url + "favicon.ico")[0] == 204  # every page load asked for it: a 404 in the console
 
 
-def _view_stderr(*arguments: str) -> tuple[str, list[str]]:
-    """Run `elastyle view ... --no-browser --port 0` until it serves: its stderr and the clips' labels."""
+def _view_payload(*arguments: str) -> tuple[str, dict[str, Any]]:
+    """Run `elastyle view ... --no-browser --port 0` until it serves: its stderr and the page's data."""
     command = [sys.executable, "-c", VIEW_HARNESS, "view", *arguments, "--no-browser", "--port", "0"]
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
@@ -330,11 +330,17 @@ def _view_stderr(*arguments: str) -> tuple[str, list[str]]:
         assert ready, "the view command printed nothing within 30 s"
         match = re.search(r"http://127\.0\.0\.1:\d+/", process.stdout.readline())
         assert match
-        labels = [clip["label"] for clip in json.loads(fetch(match.group(0) + "clips.json")[2])["clips"]]
+        payload = json.loads(fetch(match.group(0) + "clips.json")[2])
     finally:
         process.terminate()
         process.wait(timeout=10)
-    return process.stderr.read(), labels
+    return process.stderr.read(), payload
+
+
+def _view_stderr(*arguments: str) -> tuple[str, list[str]]:
+    """`_view_payload`'s stderr and the clips' labels."""
+    stderr, payload = _view_payload(*arguments)
+    return stderr, [clip["label"] for clip in payload["clips"]]
 
 
 def test_view_takes_folders_and_globs_and_tells_files_of_one_name_apart(
@@ -350,7 +356,7 @@ def test_view_takes_folders_and_globs_and_tells_files_of_one_name_apart(
     stderr, labels = _view_stderr(
         str(tmp_path / "v1"), str(tmp_path / "v*" / "out.bvh"), "--explain", str(explain)
     )
-    assert labels == ["v1/out.bvh", "v1/out.bvh", "v2/out.bvh"]
+    assert labels == ["v1/out.bvh", "v1/out.bvh (2)", "v2/out.bvh"]  # one file twice, numbered
     assert "written for" not in stderr  # v2/out.bvh is shown (its name alike v1's had it warned of)
     stderr, _ = _view_stderr(str(tmp_path / "v1" / "out.bvh"), "--explain", str(explain))
     assert f"was written for {tmp_path / 'v2' / 'out.bvh'}, which is not among the clips shown" in stderr
@@ -492,3 +498,33 @@ def test_view_warns_of_an_explain_file_written_for_another_output(
         "explain.json was written for /some/folder/styled_walk.bvh, which is not among the clips shown"
         in stderr
     )
+
+
+def test_view_tells_clips_apart_under_folders_of_one_name_and_style_clips_of_one_name(
+    three_channel_bvh: Path, tmp_path: Path
+) -> None:
+    """Clips in v1/clips/ and v2/clips/ were both labelled clips/walk.bvh, the page taking the content for
+    the output; two style clips named take1.bvh in two folders were both shown as take1.bvh, every patch
+    drawn in the first one's colour."""
+    for folder in ("v1/clips", "v2/clips", "lib/active", "lib/elderly"):
+        (tmp_path / folder).mkdir(parents=True)
+    for path in ("v1/clips/walk.bvh", "v2/clips/walk.bvh", "lib/active/take1.bvh", "lib/elderly/take1.bvh"):
+        (tmp_path / path).write_text(three_channel_bvh.read_text())
+    explain = write_explain(tmp_path / "explain.json", str(tmp_path / "lib/active/take1.bvh"))
+    record = json.loads(explain.read_text())
+    record["styles"][0]["patches"][0]["style_clip"] = str(tmp_path / "lib/elderly/take1.bvh")  # at 1 s
+    explain.write_text(json.dumps(record | {"output": str(tmp_path / "v2/clips/walk.bvh")}))
+    shown = [
+        tmp_path / p
+        for p in ("v1/clips/walk.bvh", "v2/clips/walk.bvh", "lib/active/take1.bvh", "lib/elderly/take1.bvh")
+    ]
+    stderr, payload = _view_payload(*map(str, shown), "--explain", str(explain))
+    labels = [clip["label"] for clip in payload["clips"]]
+    assert labels == ["v1/clips/walk.bvh", "v2/clips/walk.bvh", "active/take1.bvh", "elderly/take1.bvh"]
+    assert payload["explain"]["output"] == "v2/clips/walk.bvh"  # the output, not the content
+    sources = [row["style_clip"] for row in payload["explain"]["styles"][0]["patches"]]
+    assert sources == ["active/take1.bvh", "elderly/take1.bvh"]
+    assert str(tmp_path) not in json.dumps(payload)  # no more of the user's folders than tells clips apart
+    # the style clips not shown: told apart among themselves
+    _, alone = _view_payload(str(shown[1]), "--explain", str(explain))
+    assert [row["style_clip"] for row in alone["explain"]["styles"][0]["patches"]] == sources

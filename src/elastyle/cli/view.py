@@ -55,16 +55,12 @@ def _read_clips(specs: list[str], units: str | None) -> tuple[list[Any], list[st
     their paths."""
     from elastyle.core.body import in_units
     from elastyle.io.dataset import find_clips
+    from elastyle.viewer.app import distinct_labels
 
     clips = find_clips(specs)
     motions = [in_units(clip.read()[0], units) for clip in clips]
-    names = [Path(clip.member or clip.name).name for clip in clips]
-    # a file name given twice (the same take before and after, from two folders) labelled with its folder
-    labels = [
-        f"{Path(clip.name).parent.name}/{name}" if names.count(name) > 1 else name
-        for clip, name in zip(clips, names)
-    ]
-    return motions, labels, [clip.name for clip in clips]
+    # a file name given twice (the same take before and after, from two folders) labelled with its folders
+    return motions, distinct_labels([clip.name for clip in clips]), [clip.name for clip in clips]
 
 
 def run_render(args: argparse.Namespace) -> int:
@@ -83,12 +79,29 @@ def run_render(args: argparse.Namespace) -> int:
     return 0
 
 
-def _same_output(recorded: str, shown: str) -> bool:
+def _same_clip(recorded: str, shown: str) -> bool:
     """Whether an explain file's recorded output is a clip shown: the same file where it was recorded as an
     absolute path; by name where relative (older files recorded the path relative to where transfer ran)."""
     if os.path.isabs(recorded):
         return os.path.abspath(shown) == os.path.normpath(recorded)
     return Path(recorded).name == Path(shown).name
+
+
+def _shown_style_clips(explain: dict[str, Any], labels: list[str], paths: list[str]) -> None:
+    """Each patch's style clip (in place) as the label of the clip shown that it was recorded as, the same
+    file (the style clips' recorded paths are relative to where transfer ran, or absolute)."""
+    renamed = {}
+    for label, recorded in explain["style_paths"].items():
+        same = [
+            shown_label
+            for shown_label, path in zip(labels, paths)
+            if os.path.abspath(path) == os.path.abspath(recorded)
+        ]
+        if same:
+            renamed[label] = same[0]
+    for track in explain["styles"] + explain["part_styles"]:
+        for row in track["patches"]:
+            row["style_clip"] = renamed.get(row["style_clip"], row["style_clip"])
 
 
 def run_view(args: argparse.Namespace) -> int:
@@ -102,7 +115,7 @@ def run_view(args: argparse.Namespace) -> int:
     motions, labels, paths = _read_clips(args.clips, args.units)
     written_for = explain["output_path"] if explain is not None else None
     if explain is not None and written_for:
-        shown = [label for label, path in zip(labels, paths) if _same_output(written_for, path)]
+        shown = [label for label, path in zip(labels, paths) if _same_clip(written_for, path)]
         if shown:
             explain["output"] = shown[0]  # the page finds the output by its label
         else:
@@ -110,6 +123,8 @@ def run_view(args: argparse.Namespace) -> int:
                 "warning: %s was written for %s, which is not among the clips shown: its patches are drawn on "
                 "their timeline all the same", args.explain, written_for,
             )  # fmt: skip
+    if explain is not None:
+        _shown_style_clips(explain, labels, paths)
     payload = build_payload(motions, labels, explain)
     if args.port is None:
         try:

@@ -44,6 +44,26 @@ _PATCH_FIELDS = (
 _OPTIONAL_FIELDS = (("style_backwards", bool, False), ("content_start_s", float, None))
 
 
+def distinct_labels(paths: Sequence[str]) -> list[str]:
+    """A label per clip path (N,): its file name, with as many of its folders before it as tell it from the
+    others' (`v1/clips/walk.bvh` and `v2/clips/walk.bvh` are `v1/clips/walk.bvh` and `v2/clips/walk.bvh`, a
+    lone `take1.bvh` stays `take1.bvh`); a path given twice is numbered. No more of the user's folders than
+    that goes to the page."""
+    parts = [PurePath(str(path).replace("\\", "/")).parts for path in paths]
+    labels = []
+    for index, own in enumerate(parts):
+        others = [other for k, other in enumerate(parts) if k != index and other != own]
+        depth = 1
+        while depth < len(own) and any(other[-depth:] == own[-depth:] for other in others):
+            depth += 1
+        labels.append("/".join(own[-depth:]))
+    for index, label in enumerate(labels):
+        repeats = labels[:index].count(label)
+        if repeats:
+            labels[index] = f"{label} ({repeats + 1})"
+    return labels
+
+
 def build_payload(
     motions: Sequence[Motion], labels: Sequence[str], explain: dict[str, Any] | None = None
 ) -> dict[str, Any]:
@@ -71,8 +91,8 @@ def build_payload(
             }
         )
     height = height if height > 0 else 1.0
-    if explain is not None:  # the page gets the output's name: no folder of the user's goes out
-        explain = {key: value for key, value in explain.items() if key != "output_path"}
+    if explain is not None:  # the page gets the output's label: no more of the user's folders goes out
+        explain = {key: value for key, value in explain.items() if key not in ("output_path", "style_paths")}
     return {"clips": clips, "height": height, "grid_spacing": grid_spacing(height), "explain": explain}
 
 
@@ -107,24 +127,35 @@ def read_explain(path: str | os.PathLike[str]) -> dict[str, Any]:
     if not isinstance(parts, list):
         raise ElastyleError(f"{path}: 'part_styles' is not a list")
     output = record.get("output")  # the output file it was written for (older files do not say)
+    tracks = [_track(style, path) for style in styles]
+    # the body parts another style gave their manner, each with its own track
+    part_tracks = [
+        _track(entry, path) | {"parts": [str(part) for part in entry.get("parts", [])]} for entry in parts
+    ]
+    # the style clips by label (`distinct_labels`), each label's path as recorded
+    recorded = list(
+        dict.fromkeys(row["style_clip"] for track in tracks + part_tracks for row in track["patches"])
+    )
+    label_of = dict(zip(recorded, distinct_labels(recorded)))
+    for track in tracks + part_tracks:
+        for row in track["patches"]:
+            row["style_clip"] = label_of[row["style_clip"]]
     return {
         "source": Path(path).name,
-        "styles": [_track(style, path) for style in styles],
-        # the body parts another style gave their manner, each with its own track
-        "part_styles": [
-            _track(entry, path) | {"parts": [str(part) for part in entry.get("parts", [])]} for entry in parts
-        ],
+        "styles": tracks,
+        "part_styles": part_tracks,
         "second_weight": _second_weight(record.get("second_weight"), path),
         "model_fps": _model_fps(record.get("model_fps", 30.0), path),
         "output": PurePath(str(output)).name if output else None,  # what the page shows of it
         "output_path": str(output)
         if output
         else None,  # as the transfer recorded it, for the caller's checks
+        "style_paths": {label: path for path, label in label_of.items()},  # likewise
     }
 
 
 def _track(style: Any, path: str | os.PathLike[str]) -> dict[str, Any]:
-    """One style's patches from an explain record, sorted by output time, its clips by name only."""
+    """One style's patches from an explain record, sorted by output time, its clips as recorded."""
     patches = style.get("patches") if isinstance(style, dict) else None
     if not isinstance(patches, list):
         raise ElastyleError(f"{path}: a style entry has no 'patches' list")
@@ -140,8 +171,6 @@ def _track(style: Any, path: str | os.PathLike[str]) -> dict[str, Any]:
             | _decision(patch)
             for patch in patches
         ]
-        for row in rows:  # the page shows clips by name: no folder of the user's goes out
-            row["style_clip"] = PurePath(str(row["style_clip"])).name
     except (KeyError, TypeError, ValueError) as error:
         raise ElastyleError(f"{path}: a patch lacks or mangles field {error}") from None
     return {"patches": sorted(rows, key=lambda row: row["output_start_s"])}
