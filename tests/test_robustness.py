@@ -455,6 +455,15 @@ def test_eval_refuses_wrong_arguments_before_any_work(tmp_path: Path, dataset_cl
         (["--benchmark", data, "--pairs", "-1"], "--pairs: must be at least 1"),
         (["out.bvh", "--benchmark", data], "not both"),
         (["out.bvh", "--content", "c.bvh", "--style", "s.bvh", "--out", str(tmp_path)], "needs --benchmark"),
+        # the last of several used to be taken silently
+        (
+            ["out.bvh", "--content", "c.bvh", "--style", "a.bvh", "--style", "b.bvh"],
+            "--style is given 2 times",
+        ),
+        (
+            ["out.bvh", "--content", "c.bvh", "--content", "d.bvh", "--style", "s.bvh"],
+            "--content is given 2 times",
+        ),
     ]:
         result = _cli("eval", *args)
         assert result.returncode == 2 and message in result.stderr, (args, result.stderr)

@@ -31,8 +31,10 @@ def add_eval_commands(commands: Any) -> None:
         "over the dataset's held-out pairs (--benchmark DATA).",
     )
     evaluate.add_argument("output", nargs="?", help="a transfer's output BVH")
-    evaluate.add_argument("--content", help="the content clip of that transfer")
-    evaluate.add_argument("--style", help="the style clip of that transfer")
+    evaluate.add_argument("--content", action="append", help="the content clip of that transfer")
+    evaluate.add_argument(
+        "--style", action="append", help="the style clip of that transfer (one: its timing is compared)"
+    )
     evaluate.add_argument(
         "--benchmark", metavar="DATA", help="run the benchmark on the dataset (zip or folder)"
     )
@@ -105,6 +107,13 @@ def run_eval(args: argparse.Namespace) -> int:
         return 0
     if not (args.output and args.content and args.style):
         raise UsageError("give OUT.bvh --content C.bvh --style S.bvh, or --benchmark DATA")
+    for flag, given in (("--content", args.content), ("--style", args.style)):
+        if len(given) > 1:  # the last one used to be taken silently
+            raise UsageError(
+                f"{flag} is given {len(given)} times; eval compares the output with one content and one style "
+                "clip (for a transfer from several style clips, give the one whose timing it should have)"
+            )
+    args.content, args.style = args.content[0], args.style[0]
     from elastyle.core.body import in_units, no_legs_note
     from elastyle.eval.report import transfer_figures
     from elastyle.model.depth import clip_depth
