@@ -713,6 +713,31 @@ def test_content_paths_that_look_like_globs_and_resumed_single_outputs(
         assert len(_content_clips([f"{data_path}/bandai-namco-2/data"])) > 100
 
 
+def test_a_resumed_batch_with_explain_records_leaves_half_written_pairs_and_says_so(
+    tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
+    """An output without its explain record was skipped without a word, and a record without its output
+    refused the whole batch."""
+    names = ["dataset-2_walk_normal_005", "dataset-2_walk_normal_010", "dataset-2_walk_normal_015"]
+    contents = _dataset_copies(tmp_path, dataset_clips, names)
+    out, records = tmp_path / "out", tmp_path / "records"
+    command = ["transfer", *map(str, contents), "--style", str(contents[0]), "-o", f"{out}/",
+               "--explain", f"{records}/", "--jobs", "1"]  # fmt: skip
+    assert _cli(*command).returncode == 0
+    (records / f"{names[0]}.json").unlink()  # an output without its record
+    (out / f"{names[1]}.bvh").unlink()  # a record without its output
+    (out / f"{names[2]}.bvh").unlink()  # neither
+    (records / f"{names[2]}.json").unlink()
+    kept = (out / f"{names[0]}.bvh").read_bytes(), (records / f"{names[1]}.json").read_bytes()
+    result = _cli(*command, "--skip-existing")
+    assert result.returncode == 0, result.stderr
+    assert f"{out / names[0]}.bvh exists but {records / names[0]}.json does not" in result.stderr
+    assert f"{records / names[1]}.json exists but {out / names[1]}.bvh does not" in result.stderr
+    assert "2 of 3 outputs exist and are skipped" in result.stderr
+    assert (out / f"{names[2]}.bvh").exists() and (records / f"{names[2]}.json").exists()
+    assert kept == ((out / f"{names[0]}.bvh").read_bytes(), (records / f"{names[1]}.json").read_bytes())
+
+
 def test_an_unwritable_output_folder_is_refused_before_any_work(dataset_clips: list[ClipRef]) -> None:
     if not Path("/proc/self").is_dir():
         pytest.skip("needs /proc: a folder that exists but takes no new file")

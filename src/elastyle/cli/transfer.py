@@ -104,7 +104,7 @@ def _outputs(args: argparse.Namespace) -> tuple[list[str], list[Path]]:
         raise OutputError(f"{output}: a file, not a folder; give a folder for the outputs (-o DIR/)")
     if len(contents) == 1 and not as_folder:
         check_output_format(output)
-        if args.skip_existing and not args.force and output.exists():
+        if args.skip_existing and not args.force and _done(args, output):
             log.info("note: %s exists and is skipped (--skip-existing)", output)
             return [], []
         return contents, [check_output_path(output, force=args.force, inputs=inputs)]
@@ -124,7 +124,7 @@ def _outputs(args: argparse.Namespace) -> tuple[list[str], list[Path]]:
         check_writable(output)  # its parent takes the new folder
         return contents, targets
     if args.skip_existing and not args.force:
-        kept = [(c, t) for c, t in zip(contents, targets) if not t.exists()]
+        kept = [(c, t) for c, t in zip(contents, targets) if not _done(args, t)]
         if len(kept) < len(contents):
             log.info("note: %d of %d outputs exist and are skipped", len(contents) - len(kept), len(contents))
         contents, targets = [c for c, _ in kept], [t for _, t in kept]
@@ -135,6 +135,21 @@ def _outputs(args: argparse.Namespace) -> tuple[list[str], list[Path]]:
             "and writes the rest)"
         )
     return contents, [check_output_path(t, force=args.force, inputs=inputs) for t in targets]
+
+
+def _done(args: argparse.Namespace, target: Path) -> bool:
+    """Whether --skip-existing leaves an output: it exists, or its explain record does (where --explain asks
+    for one). Where only one of the two exists (a batch stopped between them, or one deleted) the clip is
+    left too, with a warning naming the missing file: writing it would replace the other without --force."""
+    record = explain_path(args.explain, target) if args.explain else None
+    present = [path for path in (target, record) if path is not None and path.exists()]
+    if record is not None and len(present) == 1:
+        missing = record if present[0] == target else target
+        log.warning(
+            "warning: %s exists but %s does not: that clip is skipped (--force writes both anew)",
+            present[0], missing,
+        )  # fmt: skip
+    return bool(present)
 
 
 def _content_clips(specs: list[str]) -> list[str]:
