@@ -738,6 +738,36 @@ def test_a_resumed_batch_with_explain_records_leaves_half_written_pairs_and_says
     assert kept == ((out / f"{names[0]}.bvh").read_bytes(), (records / f"{names[1]}.json").read_bytes())
 
 
+def test_a_batch_writing_inside_its_content_folder_does_not_read_its_own_outputs(
+    tmp_path: Path, dataset_clips: list[ClipRef]
+) -> None:
+    """A second run took the first one's outputs for contents ("... would both be written ...: rename
+    one"), and a clip named twice (its folder and itself) was refused the same way."""
+    clips = tmp_path / "clips"
+    (clips / "walks").mkdir(parents=True)
+    [walk] = _dataset_copies(clips / "walks", dataset_clips, ["dataset-2_walk_normal_005"])
+    out = clips / "styled"
+    command = [
+        "transfer",
+        str(clips),
+        str(walk),
+        "--style",
+        str(walk),
+        "-o",
+        f"{out}/",
+        "--explain",
+        f"{out}/",
+    ]
+    first = _cli(*command)
+    assert first.returncode == 0, first.stderr
+    assert sorted(p.name for p in out.iterdir()) == [f"{walk.stem}.bvh", f"{walk.stem}.json"]
+    again = _cli(*command, "--skip-existing")
+    assert again.returncode == 0, again.stderr
+    assert "1 clip(s) in the folder written to" in again.stderr and "1 of 1 outputs exist" in again.stderr
+    assert _cli(*command, "--force").returncode == 0
+    assert sorted(p.name for p in out.iterdir()) == [f"{walk.stem}.bvh", f"{walk.stem}.json"]
+
+
 def test_an_unwritable_output_folder_is_refused_before_any_work(dataset_clips: list[ClipRef]) -> None:
     if not Path("/proc/self").is_dir():
         pytest.skip("needs /proc: a folder that exists but takes no new file")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -152,19 +153,38 @@ def _done(args: argparse.Namespace, target: Path) -> bool:
     return bool(present)
 
 
-def _content_clips(specs: list[str]) -> list[str]:
+def _content_clips(specs: list[str], written: list[str]) -> list[str]:
     """The content arguments with folders, globs and zip archives (or folders inside them) replaced by the
-    clips they hold; a clip's own path (a file, or a .bvh or .glb inside an archive) stays as it is."""
+    clips they hold; a clip's own path (a file, or a .bvh or .glb inside an archive) stays as it is. A clip
+    named twice is read once; clips a folder or glob finds inside the folders the command writes to
+    (`written`: -o DIR/, --explain DIR/), an earlier run's outputs, are not contents."""
     from elastyle.io.dataset import CLIP_SUFFIXES, find_clips
 
+    outputs = [Path(folder).resolve() for folder in written]
     clips: list[str] = []
+    seen: set[str] = set()
+    left = 0  # clips found in the folders written to
     for spec in specs:
         path = Path(spec)
         pattern = any(c in spec for c in "*?[")
         one = (path.is_file() and not spec.lower().endswith(".zip")) or (
             spec.lower().endswith(CLIP_SUFFIXES) and not pattern
         )
-        clips += [spec] if one else [clip.name for clip in find_clips([spec])]
+        found = [spec] if one else [clip.name for clip in find_clips([spec])]
+        for clip in found:
+            key = os.path.normcase(os.path.abspath(clip))
+            if key in seen:
+                continue
+            if not one and any(Path(key).is_relative_to(folder) for folder in outputs):
+                left += 1
+                continue
+            seen.add(key)
+            clips.append(clip)
+    if left:
+        log.info(
+            "note: %d clip(s) in the folder written to (%s) are an earlier run's outputs, not content",
+            left, ", ".join(written),
+        )  # fmt: skip
     return clips
 
 
@@ -196,7 +216,12 @@ def run_transfer(args: argparse.Namespace) -> int:
 
     config = config_from_args(TransferConfig, args)  # validated once: a bad value is a UsageError
     _check_no_empty_paths(args)
-    args.content = _content_clips(args.content)
+    written = []  # the folders the command writes to: clips found there are no contents
+    if args.output and (args.output.endswith(("/", "\\")) or Path(args.output).is_dir()):
+        written.append(args.output)
+    if args.explain and explain_folder(args.explain):
+        written.append(args.explain)
+    args.content = _content_clips(args.content, written)
     _check_style_options(args)
     from elastyle.core.parts import parse_parts
 
