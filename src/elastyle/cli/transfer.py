@@ -85,7 +85,8 @@ def add_transfer_command(commands: Any) -> None:
     parser.add_argument(
         "--skip-existing",
         action="store_true",
-        help="leave outputs that exist (resume a batch; for one content clip, its output)",
+        help="leave outputs that exist, or whose explain record does (resume a batch; for one content clip, its "
+        "output)",
     )
     parser.add_argument("--force", action="store_true", help="overwrite existing output files")
     parser.set_defaults(run=run_transfer)
