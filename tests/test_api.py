@@ -360,3 +360,48 @@ def test_transfers_in_threads_give_the_same_bytes_and_leave_the_blas_threads_as_
         for got, want in zip(styled, expected):
             np.testing.assert_array_equal(got.rotations, want.rotations)
             np.testing.assert_array_equal(got.translations, want.translations)
+
+
+def test_a_child_forked_while_a_thread_transfers_can_transfer(
+    model, content: Motion, style_clip: Motion
+) -> None:  # type: ignore[no-untyped-def]
+    """Calls run one at a time under a process-wide lock: a child forked while another thread held it
+    inherited it held, by a thread the child does not have, and its first transfer waited for ever."""
+    import threading
+    import time
+
+    from elastyle.core.threads import one_blas_thread
+
+    if not hasattr(os, "fork"):
+        pytest.skip("no fork on this platform")
+    library = prepare_style(model, style_clip)
+    holding, release = threading.Event(), threading.Event()
+
+    @one_blas_thread
+    def hold() -> None:  # a transfer under way in another thread
+        holding.set()
+        release.wait(30)
+
+    thread = threading.Thread(target=hold)
+    thread.start()
+    assert holding.wait(10)
+    child = os.fork()
+    if child == 0:  # pragma: no cover (the child's outcome is its exit code)
+        try:
+            transfer(content.slice(0, 60), library, model=model)
+            os._exit(0)
+        except BaseException:
+            os._exit(1)
+    release.set()
+    thread.join()
+    deadline = time.monotonic() + 60
+    while True:
+        done, status = os.waitpid(child, os.WNOHANG)
+        if done:
+            break
+        if time.monotonic() > deadline:
+            os.kill(child, 9)
+            os.waitpid(child, 0)
+            pytest.fail("the forked child's transfer never ended")
+        time.sleep(0.05)
+    assert os.waitstatus_to_exitcode(status) == 0

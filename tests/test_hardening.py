@@ -215,14 +215,15 @@ def test_a_killed_writers_temporary_file_is_removed_by_the_next_write(tmp_path: 
     [(1, "", "-o/--output is empty"), (2, "two.bvh", "need an output folder")],
 )
 def test_output_mistakes_exit_2(tmp_path: Path, contents: int, output: str, words: str) -> None:
-    good = tmp_path / "good.bvh"
-    good.write_text(GOOD)
+    clips = [tmp_path / f"good{k}.bvh" for k in range(contents)]  # two files: one named twice is read once
+    for clip in clips:
+        clip.write_text(GOOD)
     result = subprocess.run(
-        [sys.executable, "-m", "elastyle.cli", "transfer", *[str(good)] * contents, "--style", str(good), "-o", output],
+        [sys.executable, "-m", "elastyle.cli", "transfer", *map(str, clips), "--style", str(clips[0]), "-o", output],
         capture_output=True, text=True, cwd=tmp_path,
     )  # fmt: skip
     assert result.returncode == 2 and words in result.stderr, result.stderr
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["good.bvh"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [clip.name for clip in clips]
 
 
 def test_convert_refuses_an_absurd_frame_rate(tmp_path: Path) -> None:

@@ -464,6 +464,7 @@ def test_eval_refuses_wrong_arguments_before_any_work(tmp_path: Path, dataset_cl
             ["out.bvh", "--content", "c.bvh", "--content", "d.bvh", "--style", "s.bvh"],
             "--content is given 2 times",
         ),
+        (["out.bvh", "--content", "c.bvh", "--style", ""], "--style is empty"),
     ]:
         result = _cli("eval", *args)
         assert result.returncode == 2 and message in result.stderr, (args, result.stderr)
@@ -710,7 +711,7 @@ def test_content_paths_that_look_like_globs_and_resumed_single_outputs(
     if str(data_path).endswith(".zip"):  # a folder inside the archive names its clips
         from elastyle.cli.transfer import _content_clips
 
-        assert len(_content_clips([f"{data_path}/bandai-namco-2/data"])) > 100
+        assert len(_content_clips([f"{data_path}/bandai-namco-2/data"], [])) > 100
 
 
 def test_a_resumed_batch_with_explain_records_leaves_half_written_pairs_and_says_so(
@@ -763,9 +764,16 @@ def test_a_batch_writing_inside_its_content_folder_does_not_read_its_own_outputs
     assert sorted(p.name for p in out.iterdir()) == [f"{walk.stem}.bvh", f"{walk.stem}.json"]
     again = _cli(*command, "--skip-existing")
     assert again.returncode == 0, again.stderr
-    assert "1 clip(s) in the folder written to" in again.stderr and "1 of 1 outputs exist" in again.stderr
+    assert "1 clip(s) in the folder the outputs are written to" in again.stderr, again.stderr
+    assert "1 of 1 outputs exist" in again.stderr
     assert _cli(*command, "--force").returncode == 0
     assert sorted(p.name for p in out.iterdir()) == [f"{walk.stem}.bvh", f"{walk.stem}.json"]
+    # an output folder above the content folder reads the clips below it (only its own files are outputs)
+    above = _cli("transfer", str(clips / "walks"), "--style", str(walk), "-o", f"{tmp_path}/")
+    assert above.returncode == 0 and (tmp_path / f"{walk.stem}.bvh").exists(), above.stderr
+    # a folder holding nothing but the outputs' is no content
+    alone = _cli("transfer", str(out), "--style", str(walk), "-o", f"{out}/", "--force")
+    assert alone.returncode == 2 and "are all the content found" in alone.stderr, alone.stderr
 
 
 def test_an_unwritable_output_folder_is_refused_before_any_work(dataset_clips: list[ClipRef]) -> None:

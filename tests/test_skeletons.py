@@ -906,15 +906,22 @@ def test_a_root_motion_joint_above_a_rotation_only_pelvis_carries_the_transfers_
 
 def _root_motion_rig(motion: Motion) -> Motion:
     """The clip as a game rig carries root motion: its top joint (renamed Reference, which the model does
-    not have) on the pelvis's path along the ground, the pelvis's position channels relative to it."""
+    not have) on the pelvis's path along the ground, turning about the vertical, the pelvis's position
+    channels and rotation relative to it."""
+    from elastyle.core.rotations import from_matrix, to_matrix
+
     skeleton = motion.skeleton
     hips = skeleton.pelvis
     ground = motion.translations[:, hips] * np.array([1.0, 0.0, 1.0])  # the top joint sits at the origin
-    translations = motion.translations.copy()
+    yaw = 0.4 * np.sin(np.arange(motion.num_frames) / motion.fps)  # (T,) radians, a heading that sways
+    rotations, translations = motion.rotations.copy(), motion.translations.copy()
+    rotations[:, 0] = yaw[:, None] * np.array([0.0, 1.0, 0.0])
+    back = np.swapaxes(to_matrix(rotations[:, 0]), -1, -2)  # (T, 3, 3) the world into the root's frame
+    rotations[:, hips] = from_matrix(back @ to_matrix(motion.rotations[:, hips]))
     translations[:, 0] = ground
-    translations[:, hips] -= ground
+    translations[:, hips] = np.einsum("tij,tj->ti", back, motion.translations[:, hips] - ground)
     names = ("Reference", *skeleton.names[1:])
-    return Motion(replace(skeleton, names=names), motion.rotations, translations, motion.fps)
+    return Motion(replace(skeleton, names=names), rotations, translations, motion.fps)
 
 
 def test_a_root_motion_joint_goes_along_with_the_body(walk: Motion, dataset_clips: list[ClipRef]) -> None:
@@ -925,6 +932,7 @@ def test_a_root_motion_joint_goes_along_with_the_body(walk: Motion, dataset_clip
     style = clip_named(dataset_clips, "dataset-2_walk_active_010").read()[0]
     rig = _root_motion_rig(walk)
     hips = walk.skeleton.pelvis
+    np.testing.assert_allclose(rig.positions()[:, 1:], walk.positions()[:, 1:], atol=1e-9)  # the same body
     assert np.abs(rig.translations[:, hips, [0, 2]]).max() < 8.0  # the content's pelvis stays over its root
     styled = transfer(rig, _root_motion_rig(style)).motion
     plain = transfer(walk, style).motion

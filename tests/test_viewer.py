@@ -510,10 +510,12 @@ def test_view_tells_clips_apart_under_folders_of_one_name_and_style_clips_of_one
         (tmp_path / folder).mkdir(parents=True)
     for path in ("v1/clips/walk.bvh", "v2/clips/walk.bvh", "lib/active/take1.bvh", "lib/elderly/take1.bvh"):
         (tmp_path / path).write_text(three_channel_bvh.read_text())
-    explain = write_explain(tmp_path / "explain.json", str(tmp_path / "lib/active/take1.bvh"))
+    # the style clips as transfer records them: relative to where it ran (the viewer runs elsewhere)
+    explain = write_explain(tmp_path / "explain.json", "lib/active/take1.bvh")
     record = json.loads(explain.read_text())
-    record["styles"][0]["patches"][0]["style_clip"] = str(tmp_path / "lib/elderly/take1.bvh")  # at 1 s
-    explain.write_text(json.dumps(record | {"output": str(tmp_path / "v2/clips/walk.bvh")}))
+    record["styles"][0]["patches"][0]["style_clip"] = "lib/elderly/take1.bvh"  # at 1 s
+    record |= {"output": str(tmp_path / "v2/clips/walk.bvh"), "working_folder": str(tmp_path)}
+    explain.write_text(json.dumps(record))
     shown = [
         tmp_path / p
         for p in ("v1/clips/walk.bvh", "v2/clips/walk.bvh", "lib/active/take1.bvh", "lib/elderly/take1.bvh")
@@ -528,3 +530,14 @@ def test_view_tells_clips_apart_under_folders_of_one_name_and_style_clips_of_one
     # the style clips not shown: told apart among themselves
     _, alone = _view_payload(str(shown[1]), "--explain", str(explain))
     assert [row["style_clip"] for row in alone["explain"]["styles"][0]["patches"]] == sources
+
+
+def test_labels_tell_every_clip_apart() -> None:
+    from elastyle.viewer.app import distinct_labels
+
+    assert distinct_labels(["a/w.bvh", "a/w.bvh", "a/w.bvh"]) == ["w.bvh", "w.bvh (2)", "w.bvh (3)"]
+    assert distinct_labels(["x/w.bvh", "x/w.bvh", "y/w.bvh (2)"]) == ["w.bvh", "w.bvh (3)", "w.bvh (2)"]
+    assert distinct_labels(["/walk.bvh", "/data/walk.bvh"]) == ["/walk.bvh", "data/walk.bvh"]
+    assert distinct_labels(["C:\\clips\\walk.bvh", "D:\\clips\\walk.bvh", "D:\\run.bvh"]) == [
+        "C:/clips/walk.bvh", "D:/clips/walk.bvh", "run.bvh",
+    ]  # fmt: skip

@@ -52,6 +52,9 @@ class Job(NamedTuple):
     explain: str | None  # a file for one content clip, or a folder (DIR/) for a record per output
     inputs: tuple[str, ...]  # what the command reads: never written
     model_file: str | None  # as given (--model), None for the shipped model: recorded in the explain file
+    working_folder: (
+        str  # where the command runs: the explain file's relative paths (clips as given) start there
+    )
 
 
 def transfer_one(job: Job, content_spec: str, target: Path) -> None:
@@ -59,15 +62,15 @@ def transfer_one(job: Job, content_spec: str, target: Path) -> None:
     _write(job, target, *_transfer(job, content_spec, target))
 
 
-def explain_folder(explain: str) -> bool:
-    """Whether an --explain path names a folder (DIR/, or one that exists): a record per output in it."""
-    return explain.endswith(("/", "\\")) or Path(explain).is_dir()
+def names_folder(path: str) -> bool:
+    """Whether an -o or --explain path names a folder (DIR/, or one that exists): a file per output in it."""
+    return path.endswith(("/", "\\")) or Path(path).is_dir()
 
 
 def explain_path(explain: str, target: Path) -> Path:
     """Where the explain record of the output `target` goes: the file given, or in a folder given the
     output's name with .json."""
-    return Path(explain) / (target.stem + ".json") if explain_folder(explain) else Path(explain)
+    return Path(explain) / (target.stem + ".json") if names_folder(explain) else Path(explain)
 
 
 def _transfer(job: Job, content_spec: str, target: Path) -> Output:
@@ -96,7 +99,10 @@ def _transfer(job: Job, content_spec: str, target: Path) -> Output:
         explain = dict(explain, notes=[turned, *explain["notes"]])
     # the output's absolute path: `view` tells whether the clips it shows include it
     output_path = os.path.abspath(target)
-    explain = dict(explain, content=content_spec, output=output_path, model=job.model_file or "shipped")
+    explain = dict(
+        explain, content=content_spec, output=output_path, model=job.model_file or "shipped",
+        working_folder=job.working_folder,
+    )  # fmt: skip
     return clip_bytes(target, result.motion, layout), json.dumps(explain, indent=1)
 
 
@@ -107,7 +113,7 @@ def _write(job: Job, target: Path, output: bytes, explain: str | None) -> None:
     write_bytes_atomic(target, output, force=job.force, inputs=job.inputs)
     log.info("wrote %s", target)
     if job.explain and explain is not None:
-        if explain_folder(job.explain):  # made with the first record (its parent was checked beforehand)
+        if names_folder(job.explain):  # made with the first record (its parent was checked beforehand)
             Path(job.explain).mkdir(exist_ok=True)
         record = explain_path(job.explain, target)
         write_text_atomic(record, explain, force=job.force, inputs=(*job.inputs, str(target)))

@@ -108,6 +108,8 @@ def run_eval(args: argparse.Namespace) -> int:
     if not (args.output and args.content and args.style):
         raise UsageError("give OUT.bvh --content C.bvh --style S.bvh, or --benchmark DATA")
     for flag, given in (("--content", args.content), ("--style", args.style)):
+        if not all(given):
+            raise UsageError(f"{flag} is empty; give the clip's path")
         if len(given) > 1:  # the last one used to be taken silently
             raise UsageError(
                 f"{flag} is given {len(given)} times; eval compares the output with one content and one style "

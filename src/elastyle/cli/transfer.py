@@ -11,8 +11,8 @@ from typing import TYPE_CHECKING, Any
 
 from elastyle.cli.batch import (
     Job,
-    explain_folder,
     explain_path,
+    names_folder,
     output_folder,
     require_dask,
     run_local,
@@ -101,7 +101,7 @@ def _outputs(args: argparse.Namespace) -> tuple[list[str], list[Path]]:
     if not args.output:
         raise UsageError("-o/--output is empty; give a file name (or DIR/ for several content clips)")
     output = Path(args.output)
-    as_folder = args.output.endswith(("/", "\\")) or output.is_dir()
+    as_folder = names_folder(args.output)
     if as_folder and output.exists() and not output.is_dir():
         raise OutputError(f"{output}: a file, not a folder; give a folder for the outputs (-o DIR/)")
     if len(contents) == 1 and not as_folder:
@@ -157,35 +157,37 @@ def _done(args: argparse.Namespace, target: Path) -> bool:
 def _content_clips(specs: list[str], written: list[str]) -> list[str]:
     """The content arguments with folders, globs and zip archives (or folders inside them) replaced by the
     clips they hold; a clip's own path (a file, or a .bvh or .glb inside an archive) stays as it is. A clip
-    named twice is read once; clips a folder or glob finds inside the folders the command writes to
-    (`written`: -o DIR/, --explain DIR/), an earlier run's outputs, are not contents."""
+    named twice (through a link too) is read once; the clips a folder or glob finds directly in the folder
+    the outputs are written to (`written`: -o DIR/), an earlier run's outputs, are not contents (a
+    `UsageError` where they were all it found)."""
     from elastyle.io.dataset import CLIP_SUFFIXES, find_clips
 
-    outputs = [Path(folder).resolve() for folder in written]
+    outputs = {os.path.realpath(folder) for folder in written}
     clips: list[str] = []
     seen: set[str] = set()
-    left = 0  # clips found in the folders written to
+    left = 0  # clips found in the outputs' folder
     for spec in specs:
         path = Path(spec)
         pattern = any(c in spec for c in "*?[")
         one = (path.is_file() and not spec.lower().endswith(".zip")) or (
             spec.lower().endswith(CLIP_SUFFIXES) and not pattern
         )
-        found = [spec] if one else [clip.name for clip in find_clips([spec])]
-        for clip in found:
-            key = os.path.normcase(os.path.abspath(clip))
+        for clip in [spec] if one else [clip.name for clip in find_clips([spec])]:
+            key = os.path.normcase(os.path.realpath(clip))
             if key in seen:
                 continue
-            if not one and any(Path(key).is_relative_to(folder) for folder in outputs):
+            if not one and os.path.dirname(key) in {os.path.normcase(folder) for folder in outputs}:
                 left += 1
                 continue
             seen.add(key)
             clips.append(clip)
     if left:
-        log.info(
-            "note: %d clip(s) in the folder written to (%s) are an earlier run's outputs, not content",
-            left, ", ".join(written),
-        )  # fmt: skip
+        said = f"{left} clip(s) in the folder the outputs are written to ({', '.join(written)})"
+        if not clips:
+            raise UsageError(
+                f"{said} are all the content found: name the content clips, or another -o folder"
+            )
+        log.info("note: %s are an earlier run's outputs, not content", said)
     return clips
 
 
@@ -217,11 +219,7 @@ def run_transfer(args: argparse.Namespace) -> int:
 
     config = config_from_args(TransferConfig, args)  # validated once: a bad value is a UsageError
     _check_no_empty_paths(args)
-    written = []  # the folders the command writes to: clips found there are no contents
-    if args.output and (args.output.endswith(("/", "\\")) or Path(args.output).is_dir()):
-        written.append(args.output)
-    if args.explain and explain_folder(args.explain):
-        written.append(args.explain)
+    written = [args.output] if args.output and names_folder(args.output) else []  # the outputs' folder
     args.content = _content_clips(args.content, written)
     _check_style_options(args)
     from elastyle.core.parts import parse_parts
@@ -242,7 +240,7 @@ def run_transfer(args: argparse.Namespace) -> int:
     for spec in args.content:  # a missing content file is named before any work on the style
         if not Path(spec).exists() and ".zip" not in spec.lower():
             find_clips([spec])
-    if args.explain and explain_folder(args.explain) and not Path(args.explain).is_dir():
+    if args.explain and names_folder(args.explain) and not Path(args.explain).is_dir():
         if not Path(args.explain).parent.is_dir():  # made with the first record
             raise OutputError(
                 f"{args.explain}: the explain records' folder cannot be made: its parent does not exist"
@@ -300,7 +298,7 @@ def run_transfer(args: argparse.Namespace) -> int:
     part_styles = {names: library([spec]) for names, spec in _style_parts(args)}
     job = Job(
         style, model, config, second, second_weight, part_styles, args.units, read_up(), args.force,
-        args.explain, _inputs(args), args.model,
+        args.explain, _inputs(args), args.model, os.getcwd(),
     )  # fmt: skip
     if not contents:  # every output exists and --skip-existing leaves them
         return 0
@@ -375,7 +373,7 @@ def _check_style_options(args: argparse.Namespace) -> None:
         )
     if args.jobs is not None and args.jobs < 1:
         raise UsageError(f"--jobs must be at least 1, got {args.jobs}")
-    if args.explain and len(args.content) > 1 and not explain_folder(args.explain):
+    if args.explain and len(args.content) > 1 and not names_folder(args.explain):
         raise UsageError(
             f"--explain {args.explain}: several content clips write one record each: give a folder (--explain "
             f"{Path(args.explain).with_suffix('')}/)"

@@ -79,24 +79,23 @@ def run_render(args: argparse.Namespace) -> int:
     return 0
 
 
-def _same_clip(recorded: str, shown: str) -> bool:
-    """Whether an explain file's recorded output is a clip shown: the same file where it was recorded as an
-    absolute path; by name where relative (older files recorded the path relative to where transfer ran)."""
-    if os.path.isabs(recorded):
-        return os.path.abspath(shown) == os.path.normpath(recorded)
+def _same_clip(recorded: str, working_folder: str | None, shown: str) -> bool:
+    """Whether a path an explain file recorded is a clip shown: the same file (links followed) where the
+    record says where its relative paths start, or the path is absolute; else (older files, which recorded
+    paths relative to where transfer ran) the same file from here, or for the output the same name."""
+    if working_folder is not None or os.path.isabs(recorded):
+        start = working_folder or os.getcwd()
+        return os.path.realpath(os.path.join(start, recorded)) == os.path.realpath(shown)
     return Path(recorded).name == Path(shown).name
 
 
 def _shown_style_clips(explain: dict[str, Any], labels: list[str], paths: list[str]) -> None:
-    """Each patch's style clip (in place) as the label of the clip shown that it was recorded as, the same
-    file (the style clips' recorded paths are relative to where transfer ran, or absolute)."""
+    """Each patch's style clip (in place) as the label of the clip shown that is the same file
+    (`_same_clip`: an older record's style clip from here, not by name)."""
+    working = explain["working_folder"] or os.getcwd()
     renamed = {}
     for label, recorded in explain["style_paths"].items():
-        same = [
-            shown_label
-            for shown_label, path in zip(labels, paths)
-            if os.path.abspath(path) == os.path.abspath(recorded)
-        ]
+        same = [shown for shown, path in zip(labels, paths) if _same_clip(recorded, working, path)]
         if same:
             renamed[label] = same[0]
     for track in explain["styles"] + explain["part_styles"]:
@@ -115,7 +114,11 @@ def run_view(args: argparse.Namespace) -> int:
     motions, labels, paths = _read_clips(args.clips, args.units)
     written_for = explain["output_path"] if explain is not None else None
     if explain is not None and written_for:
-        shown = [label for label, path in zip(labels, paths) if _same_clip(written_for, path)]
+        shown = [
+            label
+            for label, path in zip(labels, paths)
+            if _same_clip(written_for, explain["working_folder"], path)
+        ]
         if shown:
             explain["output"] = shown[0]  # the page finds the output by its label
         else:

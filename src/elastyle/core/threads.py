@@ -11,6 +11,7 @@ stayed on the process after the last call ended).
 from __future__ import annotations
 
 import multiprocessing
+import os
 import threading
 from collections.abc import Callable
 from concurrent.futures import Executor
@@ -20,6 +21,16 @@ from typing import ParamSpec, TypeVar
 from threadpoolctl import ThreadpoolController
 
 _ONE_CALL_AT_A_TIME = threading.RLock()  # a call may call another (a transfer prepares its style)
+
+
+def _fresh_lock_after_fork() -> None:
+    """A forked child gets its own lock: one held by another thread at the fork would never be released."""
+    global _ONE_CALL_AT_A_TIME
+    _ONE_CALL_AT_A_TIME = threading.RLock()
+
+
+if hasattr(os, "register_at_fork"):  # POSIX
+    os.register_at_fork(after_in_child=_fresh_lock_after_fork)
 Params = ParamSpec("Params")
 Result = TypeVar("Result")
 

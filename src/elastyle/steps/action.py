@@ -86,10 +86,11 @@ def action_layout(skeleton: Skeleton) -> ActionLayout:
     num_hands, num_feet = len(limbs.hands), len(limbs.ankles)
     columns = count()
 
-    def take(count: int) -> IntArray:
-        return np.array([next(columns) for _ in range(count)], dtype=np.int64)
+    def take(width: int) -> IntArray:
+        return np.array([next(columns) for _ in range(width)], dtype=np.int64)
 
-    travel, turning = take(2), int(take(1)[0])  # TURNING_COLUMN
+    travel, turning = take(2), int(take(1)[0])
+    assert turning == TURNING_COLUMN  # the turning rate's column is the same on every skeleton
     hands, hand_speeds = take(3 * num_hands).reshape(num_hands, 3), take(num_hands)
     feet, pelvis_height = take(num_feet), take(1 if num_feet else 0)
     parts_of = body_parts(skeleton)

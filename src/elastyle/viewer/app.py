@@ -12,6 +12,7 @@ import json
 import logging
 import os
 import threading
+from collections import Counter
 from collections.abc import Sequence
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path, PurePath
@@ -56,11 +57,16 @@ def distinct_labels(paths: Sequence[str]) -> list[str]:
         depth = 1
         while depth < len(own) and any(other[-depth:] == own[-depth:] for other in others):
             depth += 1
-        labels.append("/".join(own[-depth:]))
+        labels.append(PurePath(*own[-depth:]).as_posix())
+    given = Counter(labels)
+    numbered: Counter[str] = Counter()
     for index, label in enumerate(labels):
-        repeats = labels[:index].count(label)
-        if repeats:
-            labels[index] = f"{label} ({repeats + 1})"
+        numbered[label] += 1
+        if given[label] > 1 and numbered[label] > 1:
+            count = numbered[label]
+            while f"{label} ({count})" in given:  # a file of that name too
+                count += 1
+            labels[index] = f"{label} ({count})"
     return labels
 
 
@@ -92,7 +98,8 @@ def build_payload(
         )
     height = height if height > 0 else 1.0
     if explain is not None:  # the page gets the output's label: no more of the user's folders goes out
-        explain = {key: value for key, value in explain.items() if key not in ("output_path", "style_paths")}
+        private = ("output_path", "style_paths", "working_folder")
+        explain = {key: value for key, value in explain.items() if key not in private}
     return {"clips": clips, "height": height, "grid_spacing": grid_spacing(height), "explain": explain}
 
 
@@ -151,6 +158,8 @@ def read_explain(path: str | os.PathLike[str]) -> dict[str, Any]:
         if output
         else None,  # as the transfer recorded it, for the caller's checks
         "style_paths": {label: path for path, label in label_of.items()},  # likewise
+        # where the transfer ran: the recorded style clips' relative paths start there (older files: unknown)
+        "working_folder": str(record["working_folder"]) if record.get("working_folder") else None,
     }
 
 
