@@ -939,3 +939,36 @@ def test_a_root_motion_joint_goes_along_with_the_body(walk: Motion, dataset_clip
     np.testing.assert_allclose(styled.positions()[:, 1:], plain.positions()[:, 1:], atol=1e-6)
     assert np.abs(styled.translations[:, hips, [0, 2]]).max() < 8.0  # the root went along
     assert np.abs(styled.translations[:, 0, 1]).max() < 1e-9  # on the ground
+
+
+def _without_joints(skeleton: Skeleton, dropped: set[str]) -> Skeleton:
+    """The skeleton without the named joints (each a whole subtree's, so no kept joint loses its parent)."""
+    kept = [j for j, name in enumerate(skeleton.names) if name not in dropped]
+    index = {old: new for new, old in enumerate(kept)}
+    parents = [index[int(skeleton.parents[j])] if skeleton.parents[j] >= 0 else -1 for j in kept]
+    return Skeleton(
+        tuple(skeleton.names[j] for j in kept),
+        np.array(parents),
+        skeleton.offsets[kept],
+        skeleton.end_sites[kept],
+    )
+
+
+def test_a_one_armed_rig_has_its_arm_as_a_part(walk: Motion) -> None:
+    """An arm without a partner of the other side's name was no arm: --keep-part left-arm was refused (parts
+    found: legs, spine), the spine's part held the arm, and the trunk's top was read at its hand."""
+    from elastyle.core.parts import body_parts, trunk
+    from elastyle.steps.action import action_layout, trunk_top
+
+    right_arm = {"Shoulder_R", "UpperArm_R", "LowerArm_R", "Hand_R"}
+    one_armed = _without_joints(walk.skeleton, right_arm)
+    parts = {name: [one_armed.names[j] for j in joints] for name, joints in body_parts(one_armed).items()}
+    assert parts["left-arm"] == ["Shoulder_L", "UpperArm_L", "LowerArm_L", "Hand_L"]
+    assert parts["spine"] == ["Spine", "Chest", "Neck", "Head"] and "right-arm" not in parts
+    assert one_armed.names[trunk_top(one_armed)] == "Head" and "Hand_L" not in [
+        one_armed.names[j] for j in trunk(one_armed)
+    ]
+    assert list(action_layout(one_armed).arm_hands) == ["left-arm"]
+    # a short chain named for a side (a prop) is no arm
+    no_arms = _without_joints(walk.skeleton, right_arm | {"UpperArm_L", "LowerArm_L", "Hand_L"})
+    assert set(body_parts(no_arms)) == {"legs", "spine"}

@@ -263,6 +263,9 @@ def _alike_pair(skeleton: Skeleton, joints: list[int]) -> list[int]:
     return list(max(pairs)[1:]) if pairs else []
 
 
+ARM_DEPTH = 2  # an arm found by its name alone holds at least this many joints below its root (elbow, hand)
+
+
 def _limbs_of(skeleton: Skeleton) -> Limbs:
     partner = skeleton.mirror_pairs()
     pelvis = skeleton.pelvis
@@ -287,6 +290,14 @@ def _limbs_of(skeleton: Skeleton) -> Limbs:
                 roots = _alike_pair(skeleton, list(skeleton.children(j)))
                 if roots:
                     break
+        if not roots:  # one arm (a one-armed character): a chain named for a side, off a joint that is not
+            roots = [
+                j
+                for j in sorted(below_spine)
+                if skeleton.named_side(j) != 0
+                and skeleton.named_side(int(skeleton.parents[j])) == 0
+                and max(_subtree_depths(skeleton, j).values()) >= ARM_DEPTH
+            ]
         hands = [_deepest_descendant(skeleton, r) for r in roots]
     arrays = [np.array(joints, dtype=np.int64) for joints in (toes, ankles, legs, hands, roots)]
     for array in arrays:

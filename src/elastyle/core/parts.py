@@ -62,7 +62,9 @@ def body_parts(skeleton: Skeleton) -> dict[str, IntArray]:
     if len(limbs.hips) and spine is not None:
         part[subtree(skeleton, spine)] = "spine"
     roots = limbs.arm_roots.tolist()
-    sides = [int(skeleton.sides()[root]) for root in roots]
+    sides = [
+        int(skeleton.sides()[root]) or skeleton.named_side(root) for root in roots
+    ]  # a lone arm: its name
     if len(roots) == 2 and 0 in sides and spine is not None and len(limbs.toes):  # unnamed: the rest pose
         across = skeleton.rest_positions()[roots] @ _left_axis(skeleton, spine)
         sides = [1, -1] if across[0] > across[1] else [-1, 1]

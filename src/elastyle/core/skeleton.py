@@ -144,6 +144,15 @@ class Skeleton:
             if partner[j] == j and any(pattern.search(name) for pattern in _SIDE_PATTERNS)
         ]
 
+    def named_side(self, joint: int) -> int:
+        """+1 where the joint's name says left, -1 right, 0 neither, whether or not a partner of the other
+        side's name exists (`sides` counts only joints with one)."""
+        for pattern in _SIDE_PATTERNS:
+            match = pattern.search(self.names[joint])
+            if match is not None:
+                return 1 if match.group(1).lower() in ("l", "left") else -1
+        return 0
+
     def sides(self) -> IntArray:
         """(J,) +1 for a left joint, -1 for a right joint, 0 for a centre joint (one without a partner)."""
         return self._sides[1]
