@@ -196,6 +196,48 @@ def test_training_works_on_another_skeleton(tmp_path: Path, three_channel_bvh: P
     assert np.abs(plain.positions() - content.positions()).max() > 0.1
 
 
+@pytest.mark.slow
+def test_the_position_loss_weighs_alike_in_any_length_unit(tmp_path: Path, dataset_clips) -> None:  # type: ignore[no-untyped-def]
+    """The position loss counted file units: a rig in metres trained without it (its positions 100 times
+    smaller, the term 10,000 times weaker), and its model drew its held-out takes about 60 % worse."""
+    from elastyle import write_bvh
+    from elastyle.training.config import TrainConfig
+    from elastyle.training.loop import train
+
+    walks = [c for c in dataset_clips if "_walk_normal_00" in c.name][:4]
+    losses = []
+    for unit, factor in (("cm", 1.0), ("m", 0.01)):
+        folder = tmp_path / unit
+        folder.mkdir()
+        for clip in walks:
+            write_bvh(folder / Path(clip.member or clip.name).name, clip.read()[0].scaled(factor))
+        model = train(
+            [str(folder)], str(tmp_path / f"{unit}.npz"),
+            TrainConfig(steps=3, window_s=2.0, position_loss=1.0, mirror_augment=False), progress=False,
+        )  # fmt: skip
+        losses.append(model.metadata["final_train_loss"])
+    assert losses[1] == pytest.approx(losses[0], rel=1e-3)
+
+
+@pytest.mark.slow
+def test_a_stray_clip_of_another_rig_is_the_one_named(
+    tmp_path: Path, dataset_clips, three_channel_bvh: Path
+) -> None:  # type: ignore[no-untyped-def]
+    """The first clip in name order was the reference: one stray clip sorting first had every one of the
+    user's clips named as the one that differs."""
+    from elastyle.training.config import TrainConfig
+    from elastyle.training.loop import train
+
+    for clip in [c for c in dataset_clips if "_walk_normal_00" in c.name][:3]:
+        (tmp_path / Path(clip.member or clip.name).name).write_bytes(clip.data())
+    stray = tmp_path / "a_stray.bvh"  # sorts first
+    stray.write_text(three_channel_bvh.read_text())
+    with pytest.raises(
+        SkeletonMismatchError, match=r"a_stray\.bvh: skeleton differs from .*dataset-2_walk.*--exclude"
+    ):
+        train([str(tmp_path)], str(tmp_path / "m.npz"), TrainConfig(steps=1), progress=False)
+
+
 def test_perturbation_moves_whole_joints_within_their_recorded_ranges() -> None:
     from elastyle.training.windows import perturb_windows
 
@@ -227,7 +269,7 @@ def test_ctrl_c_ends_training_with_a_checkpoint_to_resume(tmp_path: Path, data_p
     )
     output = tmp_path / "m.npz"
     command = [sys.executable, "-m", "elastyle.cli", "train", data, "-o", str(output), "--steps", "100000",
-               "--threads", "1"]  # fmt: skip
+               "--threads", "1", "--exclude", "*_004", "--force"]  # fmt: skip
     process = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
     checkpoint = Path(str(output) + ".ckpt")
     assert process.stderr is not None
@@ -242,9 +284,11 @@ def test_ctrl_c_ends_training_with_a_checkpoint_to_resume(tmp_path: Path, data_p
     _, stderr = process.communicate(timeout=120)
     assert process.returncode == 130, stderr
     assert "interrupted at step" in stderr and f"--resume {checkpoint}" in stderr, stderr
-    # the command to continue names the clips and the budget (a resume without a budget is refused)
-    assert f"elastyle train {shlex.quote(data)} -o {output} --resume {checkpoint} --steps 100000`" in stderr
-    assert "warning: 4 training clip(s)" in "".join(before)  # so few clips are said to teach little
+    # the command to continue names the clips, as chosen and into the same file, and the budget (a resume
+    # without a budget is refused; without the --exclude and --force given it took other clips, or refused)
+    resume = f"--resume {checkpoint} --exclude '*_004' --force --steps 100000`"
+    assert f"elastyle train {shlex.quote(data)} -o {output} {resume}" in stderr, stderr
+    assert "warning: 3 training clip(s)" in "".join(before)  # so few clips are said to teach little
     assert checkpoint.exists() and not output.exists()
     assert "Traceback" not in stderr
 

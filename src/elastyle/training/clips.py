@@ -4,6 +4,7 @@ and rest pose, and brought to one size."""
 from __future__ import annotations
 
 import logging
+from collections import Counter
 from collections.abc import Sequence
 
 from elastyle.core.body import at_size_of, same_rest_pose, same_structure
@@ -26,7 +27,13 @@ def load_motions(clips: Sequence[ClipRef], fps: float | None, up: str | None = N
     for clip in clips:
         motion, _ = clip.read(up)
         motions.append(motion if fps is None else motion.resample(fps))
-    return on_one_skeleton(motions[0].skeleton, clips[0].name, clips, motions) if motions else motions
+    if not motions:
+        return motions
+    # the skeleton most clips have is the reference: a stray clip of another rig is the one named
+    shapes = [(m.skeleton.names, tuple(m.skeleton.parents.tolist())) for m in motions]
+    common = Counter(shapes).most_common(1)[0][0]
+    reference = shapes.index(common)
+    return on_one_skeleton(motions[reference].skeleton, clips[reference].name, clips, motions)
 
 
 def on_one_skeleton(
@@ -35,17 +42,23 @@ def on_one_skeleton(
     """Every clip on `skeleton`, that of clip `reference`: its joints and its rest pose (a model learns
     rotations from one rest pose); a clip that is that skeleton under other joint names (`mixamorig:Hips`,
     `core.body.same_structure`) is read under its names, said in a note; a one-line
-    `SkeletonMismatchError` names the first clip that differs otherwise."""
+    `SkeletonMismatchError` names the first clip that differs otherwise, and how to leave it out."""
     result, renamed = [], []
+    leave_out = (
+        "; a model learns one skeleton: leave such clips out (--exclude NAME_GLOB) or train on them apart"
+    )
     for clip, motion in zip(clips, motions):
         if not skeleton.same_as(motion.skeleton) and same_structure(skeleton, motion.skeleton):
             renamed.append(clip.name)
             motion = motion.renamed(skeleton.names)
-        skeleton.check_same(motion.skeleton, reference, clip.name)
+        try:
+            skeleton.check_same(motion.skeleton, reference, clip.name)
+        except SkeletonMismatchError as error:
+            raise SkeletonMismatchError(f"{error}{leave_out}") from None
         if not same_rest_pose(skeleton, motion.skeleton):
             raise SkeletonMismatchError(
                 f"{clip.name}: the joints of {reference}, but another rest pose (its bones point other ways at "
-                "rest, so its rotations mean other poses): export every training clip in one rest pose"
+                f"rest, so its rotations mean other poses): export every training clip in one rest pose{leave_out}"
             )
         result.append(motion)
     if renamed:

@@ -20,7 +20,7 @@ class TrainConfig:
     perturb_augment: share of windows whose joints get random offsets (`perturb_scale` standard deviations,
         drifting over the window) within the recorded ranges: poses no clip holds.
     position_loss: weight of a forward-kinematics joint position and velocity loss; position_scale is the
-        length (file units) that counts as 1 in it.
+        length (centimetres, whatever the rig's unit) that counts as 1 in it.
     """
 
     model: ModelConfig = field(default_factory=ModelConfig)

@@ -20,9 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
+from elastyle.core.body import centimetres_per_unit
 from elastyle.core.mirror import mirror
 from elastyle.errors import ElastyleError, SkeletonMismatchError
-from elastyle.io.dataset import find_clips, split_held_out
+from elastyle.io.dataset import find_clips, read_up, split_held_out
 from elastyle.model.autoencoder import Autoencoder
 from elastyle.model.depth import DEFAULT_WARN_CM, calibrate
 from elastyle.model.features import FeatureSpec
@@ -122,6 +123,9 @@ def train(
 
     network = TorchAutoencoder(config.model, spec.num_channels)
     pose_positions = PosePositions(spec, mean, std)
+    # the length that counts as 1 in the position loss, in the rig's units: the same weight in any unit (a
+    # rig in metres trained without it, its positions 100 times smaller)
+    position_scale = config.position_scale / centimetres_per_unit(skeleton)
     optimizer = torch.optim.Adam(network.parameters(), lr=config.learning_rate)
     step = resumed_at = 0
     elapsed_before = 0.0
@@ -219,8 +223,8 @@ def train(
             reconstruction = network(batch)
             loss = torch.mean((reconstruction - batch) ** 2)
             if config.position_loss > 0:
-                predicted = pose_positions(reconstruction) / config.position_scale
-                target = pose_positions(batch) / config.position_scale
+                predicted = pose_positions(reconstruction) / position_scale
+                target = pose_positions(batch) / position_scale
                 position_error = torch.mean((predicted - target) ** 2)
                 velocity_error = (
                     torch.mean((torch.diff(predicted, dim=1) - torch.diff(target, dim=1)) ** 2) * fps
@@ -261,12 +265,16 @@ def train(
     save_checkpoint(checkpoint_path, network, optimizer, step, elapsed, config, clip_names)
     if stop.asked:
         budget = f"--minutes {config.minutes:g}" if config.minutes is not None else f"--steps {config.steps}"
+        # the same clips, read the same way, into the same file
+        same = [*(f"--exclude {shlex.quote(pattern)}" for pattern in exclude)]
+        same += [f"--up {read_up()}"] if read_up() != "auto" else []
+        same += ["--force"] if force else []
         given = " ".join(shlex.quote(str(spec)) for spec in data)
         log.warning(
             "interrupted at step %d: the training so far is in %s; continue it with `elastyle train %s -o %s "
             "--resume %s %s` (the same clips and options; the budget counts the training so far, so raise it "
-            "to train longer)", step, checkpoint_path, given, shlex.quote(output), shlex.quote(str(checkpoint_path)),
-            budget,
+            "to train longer)", step, checkpoint_path, given, shlex.quote(output),
+            " ".join([shlex.quote(str(checkpoint_path)), *same]), budget,
         )  # fmt: skip
         raise KeyboardInterrupt
     if val_batch is not None:
