@@ -160,7 +160,7 @@ def test_model_with_other_skeleton_lists_the_joints(three_channel_bvh: Path) -> 
         load_model().check_clip(motion, "tiny_xyz.bvh")
 
 
-def test_training_works_on_another_skeleton(tmp_path: Path, three_channel_bvh: Path) -> None:
+def test_training_works_on_another_skeleton(tmp_path: Path, three_channel_bvh: Path, capsys) -> None:  # type: ignore[no-untyped-def]
     """A 3-channel skeleton of another naming scheme: train a few steps, then transfer with the model."""
     from elastyle import write_bvh
     from elastyle.pipeline import transfer
@@ -184,6 +184,13 @@ def test_training_works_on_another_skeleton(tmp_path: Path, three_channel_bvh: P
         progress=False,
     )
     assert model.skeleton.names == motion.skeleton.names
+    # where the model comes from, without the user's folders; `info` says it
+    assert model.metadata["data"] == ["*.bvh"] and model.metadata["excluded"] == []
+    assert model.metadata["elastyle_version"] and model.metadata["trained_utc"][:2] == "20"
+    from elastyle.cli import _print_model_info
+
+    _print_model_info(str(tmp_path / "own.npz"))
+    assert "  data:     *.bvh; 20" in capsys.readouterr().out
     loaded = load_model(tmp_path / "own.npz")
     style, _ = read_bvh(tmp_path / "walk_2.bvh")
     content, _ = read_bvh(tmp_path / "walk_0.bvh")

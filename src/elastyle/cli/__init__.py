@@ -78,6 +78,12 @@ def _print_model_info(path: str) -> None:
             f"  trained:  {metadata['steps']} steps in {metadata.get('training_minutes', 0):g} min on "
             f"{metadata.get('training_clips', '?')} clips, {metadata.get('held_out_clips', '?')} held out"
         )
+    if metadata.get("data"):  # models trained since these were recorded
+        excluded = f" less {', '.join(metadata['excluded'])}" if metadata.get("excluded") else ""
+        print(
+            f"  data:     {', '.join(metadata['data'])}{excluded}; {metadata.get('trained_utc', '?')} UTC, "
+            f"elastyle {metadata.get('elastyle_version', '?')}"
+        )
     recipe = metadata.get("train_config")
     if isinstance(recipe, dict):
         window_s = recipe.get("window_s")

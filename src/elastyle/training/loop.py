@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from elastyle import __version__
 from elastyle.core.body import centimetres_per_unit
 from elastyle.core.mirror import mirror
 from elastyle.errors import ElastyleError, SkeletonMismatchError
@@ -289,6 +290,12 @@ def train(
         "held_out_loss": val_loss if math.isfinite(val_loss) else None,  # None: no clip was held out
         "training_clips": len(training),
         "held_out_clips": len(held_out),
+        # where it comes from: the clips as named to train (their last path part: no folder of the user's
+        # goes out with a model shared), less those excluded, when, by which version
+        "data": [Path(str(spec).rstrip("/\\")).name or str(spec) for spec in data],
+        "excluded": list(exclude),
+        "trained_utc": time.strftime("%Y-%m-%d %H:%M", time.gmtime()),
+        "elastyle_version": __version__,
         "split": f"held out: takes numbered % {config.holdout_every} == 0, the number ending the file name (other "
         f"names: crc32 % {config.holdout_every} == 0)",
     }
@@ -308,12 +315,14 @@ def train(
         f"held-out loss {val_loss:.4f}" if math.isfinite(val_loss) else "no clip held out to measure it"
     )
     log.info(
-        "wrote %s after %d step%s (%.1f min), %s",
+        "wrote %s after %d step%s (%.1f min), %s; %s resumes it for a longer training (--resume), or can "
+        "be deleted",
         output,
         step,
         "" if step == 1 else "s",
         elapsed / 60,
         measured,
+        checkpoint_path,
     )
     if "reconstruction_warn_cm" not in metadata:
         log.warning(
