@@ -18,6 +18,7 @@ import itertools
 
 import numpy as np
 
+from elastyle.core.body import standing_height
 from elastyle.core.motion import Motion
 from elastyle.core.roots import below, in_world
 from elastyle.core.skeleton import Skeleton, bare_name
@@ -110,6 +111,8 @@ def _by_hierarchy(model: Skeleton, clip: Skeleton) -> IntArray | None:
             joint = pending.pop()
             ours, theirs = model.children(joint), clip.children(found[joint])
             if not ours:
+                if theirs and _cut_short(model, clip, joint, found[joint]):
+                    break  # a joint inserted above the model's end joint, not extras below it
                 continue  # the clip's joints below a model end joint are extra
             if len(theirs) != len(ours):
                 break
@@ -119,6 +122,21 @@ def _by_hierarchy(model: Skeleton, clip: Skeleton) -> IntArray | None:
             if len(found) == model.num_joints - top:
                 return np.array([found[joint] for joint in range(top, model.num_joints)], dtype=np.int64)
     return None
+
+
+# a model end joint's bone read at a clip joint with joints below it is at least this share of the model's (each
+# relative to its skeleton's size): shorter, the clip has a joint between (Neck, Neck1, Head under CMU names read
+# Neck1 as the head, its bone 0 or half the model's, and carried the real head as an extra, 10 degrees off)
+SHORTEST_END_BONE = 0.6
+
+
+def _cut_short(model: Skeleton, clip: Skeleton, joint: int, theirs: int) -> bool:
+    """Whether the clip joint `theirs`, matched to the model's end joint `joint`, has a bone shorter than
+    `SHORTEST_END_BONE` of the model's, each relative to its skeleton's standing height."""
+
+    model_bone = float(np.linalg.norm(model.offsets[joint])) / (standing_height(model) or 1.0)
+    clip_bone = float(np.linalg.norm(clip.offsets[theirs])) / (standing_height(clip) or 1.0)
+    return model_bone > 0 and clip_bone < SHORTEST_END_BONE * model_bone
 
 
 MAX_PAIRED_CHILDREN = 6  # more children than this are paired in their order (720 orders tried at most)
