@@ -245,6 +245,37 @@ def test_a_stray_clip_of_another_rig_is_the_one_named(
         train([str(tmp_path)], str(tmp_path / "m.npz"), TrainConfig(steps=1), progress=False)
 
 
+def test_a_clip_the_shipped_model_reads_given_with_another_rigs_model_is_told_so(
+    tmp_path: Path, three_channel_bvh: Path, content
+) -> None:  # type: ignore[no-untyped-def]
+    """The error told the user to train a model for the dataset's skeleton, which the shipped one reads."""
+    from elastyle import write_bvh
+    from elastyle.pipeline import transfer
+    from elastyle.training.config import TrainConfig
+    from elastyle.training.loop import train
+
+    motion, layout = read_bvh(three_channel_bvh)
+    rotations = np.zeros((60, motion.skeleton.num_joints, 3))
+    rotations[:, 2, 0] = 0.5 * np.sin(np.arange(60) / 6.0)  # a leg swinging
+    clip = type(motion)(motion.skeleton, rotations, np.repeat(motion.translations[:1], 60, axis=0), 30.0)
+    for take in range(3):
+        write_bvh(tmp_path / f"own_{take}.bvh", clip, layout)
+    own = train(
+        [str(tmp_path / "*.bvh")],
+        str(tmp_path / "own.npz"),
+        TrainConfig(steps=2, window_s=1.0),
+        progress=False,
+    )
+    with pytest.raises(
+        SkeletonMismatchError, match="the shipped model reads this skeleton: leave out --model"
+    ):
+        transfer(content, content, model=own)
+    with pytest.raises(
+        SkeletonMismatchError, match="train a model on its clips"
+    ):  # the shipped model's advice
+        transfer(motion, motion)
+
+
 def test_perturbation_moves_whole_joints_within_their_recorded_ranges() -> None:
     from elastyle.training.windows import perturb_windows
 

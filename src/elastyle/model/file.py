@@ -250,11 +250,25 @@ class StyleModel:
         try:
             self.skeleton.check_same(motion.skeleton, "the model", what)
         except SkeletonMismatchError as error:
-            raise SkeletonMismatchError(
-                f"{error}; for this skeleton, train a model on its clips with 'elastyle train CLIPS -o "
-                "model.npz --recipe shipped --minutes 20' and pass it with --model model.npz"
-            ) from None
+            raise SkeletonMismatchError(f"{error}; {self._other_skeleton_advice(motion)}") from None
         return None  # check_same passed: the same names in the same hierarchy
+
+    def _other_skeleton_advice(self, motion: Motion) -> str:
+        """What to do with a clip this model cannot read: the shipped model reads it (a model of the user's
+        own rig given with a clip of the dataset's), else train a model for its skeleton."""
+        shipped = load_model()
+        if not shipped.skeleton.same_as(self.skeleton):
+            try:
+                shipped.check_clip(motion, "clip")
+                return (
+                    "the shipped model reads this skeleton: leave out --model (in Python, model=None) for it"
+                )
+            except SkeletonMismatchError:
+                pass
+        return (
+            "for this skeleton, train a model on its clips with 'elastyle train CLIPS -o model.npz --recipe "
+            "shipped --minutes 20' and pass it with --model model.npz"
+        )
 
 
 # per model skeleton, per clip skeleton: the turn of its axes `StyleModel.rest_turn` found
