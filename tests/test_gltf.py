@@ -192,3 +192,86 @@ def test_units_does_not_apply_to_glb_clips_which_are_metres(three_channel_bvh: P
     document.save(str(target))
     assert read_bvh(target)[0].skeleton.unit_cm is None
     assert centimetres_per_unit(in_units(read_bvh(target)[0], "cm").skeleton) == 1.0
+
+
+def test_glb_exports_with_an_armature_short_tracks_and_several_animations(
+    tmp_path: Path, dataset_clips: list[ClipRef], caplog
+) -> None:  # type: ignore[no-untyped-def]
+    """What exporters write that elastyle's own .glb does not: an Armature node turned a quarter over a Z-up
+    rig (ignored: the body read lying down, 6.5 m off), a track that holds still kept as two keys (refused:
+    "has 2 keys, not 267"), and several animations (the first read without a word)."""
+    import logging
+
+    from scipy.spatial.transform import Rotation
+
+    from elastyle.io.dataset import read_clip
+
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0].slice(0, 60)
+    path = tmp_path / "walk.glb"
+    write_clip(path, walk)
+    document = pygltflib.GLTF2().load(str(path))
+    blob = bytearray(document.binary_blob())
+
+    def appended(values: np.ndarray, kind: str) -> int:
+        """A new float accessor (its own buffer view at the blob's end) holding values (N, width)."""
+        document.bufferViews.append(
+            pygltflib.BufferView(buffer=0, byteOffset=len(blob), byteLength=values.size * 4)
+        )
+        blob.extend(values.astype("<f4").tobytes())
+        document.accessors.append(
+            pygltflib.Accessor(
+                bufferView=len(document.bufferViews) - 1, componentType=pygltflib.FLOAT, count=len(values),
+                type=kind, min=values.min(axis=0).tolist() if kind == "SCALAR" else None,
+                max=values.max(axis=0).tolist() if kind == "SCALAR" else None,
+            )
+        )  # fmt: skip
+        return len(document.accessors) - 1
+
+    animation, root = document.animations[0], document.skins[0].joints[0]
+    up = Rotation.from_euler("x", 90, degrees=True)  # the rig stored standing along +Z ...
+    for channel in animation.channels:
+        sampler = animation.samplers[channel.sampler]
+        if channel.target.node == root:
+            values = _accessor(document, sampler.output)
+            turned = (
+                up.apply(values)
+                if channel.target.path == "translation"
+                else (up * Rotation.from_quat(values)).as_quat()
+            )
+            sampler.output = appended(turned, "VEC3" if channel.target.path == "translation" else "VEC4")
+    node = document.nodes[root]
+    node.translation = up.apply(node.translation or [0.0, 0.0, 0.0]).tolist()
+    node.rotation = (up * Rotation.from_quat(node.rotation or [0.0, 0.0, 0.0, 1.0])).as_quat().tolist()
+    half = float(np.sqrt(0.5))  # ... under an Armature turned back a quarter
+    document.nodes.append(pygltflib.Node(name="Armature", rotation=[-half, 0.0, 0.0, half], children=[root]))
+    document.scenes[0].nodes = [len(document.nodes) - 1]
+    # the head's rotation held still: two keys, at the clip's ends
+    head = walk.skeleton.names.index("Head")
+    head_node = document.skins[0].joints[head]
+    track = next(c for c in animation.channels if c.target.node == head_node and c.target.path == "rotation")
+    times = _accessor(document, animation.samplers[track.sampler].input)[:, 0]
+    first = _accessor(document, animation.samplers[track.sampler].output)[:1]
+    animation.samplers.append(
+        pygltflib.AnimationSampler(
+            input=appended(np.array([[times[0]], [times[-1]]]), "SCALAR"),
+            output=appended(np.repeat(first, 2, axis=0), "VEC4"),
+        )
+    )
+    track.sampler = len(animation.samplers) - 1
+    document.animations.append(
+        pygltflib.Animation(
+            name="Other", channels=list(animation.channels), samplers=list(animation.samplers)
+        )
+    )
+    document.buffers[0].byteLength = len(blob)
+    document.set_binary_blob(bytes(blob))
+    exported = tmp_path / "exported.glb"
+    document.save_binary(str(exported))
+    with caplog.at_level(logging.INFO, logger="elastyle"):
+        read = read_clip(exported)[0]
+    assert f"{exported} holds 2 animations: the first, 'motion', is read" in caplog.text
+    rotations = walk.rotations.copy()
+    rotations[:, head] = rotations[0, head]  # as the two keys hold it
+    held = Motion(walk.skeleton, rotations, walk.translations, walk.fps)
+    assert read.num_frames == 60 and read.fps == walk.fps
+    np.testing.assert_allclose(read.positions(), held.positions() * metres_per_unit(walk), atol=1e-5)

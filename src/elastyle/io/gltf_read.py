@@ -2,12 +2,15 @@
 Blender export), so `.glb` clips can be viewed, converted and transferred like BVH.
 
 The first skin's joints are the skeleton (in their order, parents before children), each joint's rest
-translation its offset; the first animation's rotation and translation tracks, sampled at its keyframe
-times (which must be evenly spaced: the frame rate), animate them. Lengths stay in metres.
+translation its offset, its root under the rotations of the nodes above it (an exporter's Armature); the
+first animation's rotation and translation tracks animate them, on the keyframe times of the track with the
+most keys (which must be evenly spaced: the frame rate), a track with fewer read between its own keys
+(linear, slerp, or held for STEP). Lengths stay in metres.
 """
 
 from __future__ import annotations
 
+import logging
 import struct
 from typing import Any
 
@@ -15,12 +18,14 @@ import numpy as np
 
 from elastyle.core.body import UNITS
 from elastyle.core.motion import Motion
-from elastyle.core.rotations import from_quat
+from elastyle.core.resample import interpolate_rows
+from elastyle.core.rotations import from_matrix, from_quat, slerp_resample, to_matrix
 from elastyle.core.skeleton import Skeleton
 from elastyle.errors import BvhError
 from elastyle.io.bvh_read import frame_rate
 from elastyle.types import FloatArray
 
+log = logging.getLogger("elastyle")
 _WIDTH = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}
 
 
@@ -67,24 +72,50 @@ def parse_glb(data: bytes, name: str) -> Motion:
     offsets = np.array([node.translation or [0.0, 0.0, 0.0] for node in nodes], dtype=np.float64)
     rest_rotations = np.array([node.rotation or [0.0, 0.0, 0.0, 1.0] for node in nodes], dtype=np.float64)
     animation = document.animations[0]
-    times = _accessor(document, animation.samplers[animation.channels[0].sampler].input, name)[:, 0]
+    if len(document.animations) > 1:
+        log.info(
+            "note: %s holds %d animations: the first, %r, is read", name, len(document.animations),
+            animation.name or "unnamed",
+        )  # fmt: skip
+    tracks = [
+        channel for channel in animation.channels
+        if channel.target.node in index and channel.target.path in ("rotation", "translation")
+    ]  # fmt: skip
+    if not tracks:
+        raise BvhError(name, "the animation moves none of the skin's joints")
+    # the frames: the keys of the track with the most (an exporter keeps two of a track that holds still)
+    key_times = [_accessor(document, animation.samplers[track.sampler].input, name)[:, 0] for track in tracks]
+    times = max(key_times, key=len)
     fps = _frame_rate(times, animation.extras, name)
     frames = len(times)
     rotations = np.broadcast_to(from_quat(rest_rotations), (frames, len(joints), 3)).copy()
     translations = np.broadcast_to(offsets, (frames, len(joints), 3)).copy()
-    for channel in animation.channels:
-        joint = index.get(channel.target.node)
-        if joint is None or channel.target.path not in ("rotation", "translation"):
-            continue
-        values = _accessor(document, animation.samplers[channel.sampler].output, name)
-        if len(values) != frames:
+    for track, own_times in zip(tracks, key_times):
+        joint = index[track.target.node]
+        sampler = animation.samplers[track.sampler]
+        values = _accessor(document, sampler.output, name)
+        if sampler.interpolation == "CUBICSPLINE" and len(values) == 3 * len(own_times):
+            values = values[1::3]  # each key's value between its tangents
+        if len(values) != len(own_times):
             raise BvhError(
-                name, f"a track of joint {nodes[joint].name!r} has {len(values)} keys, not {frames}"
+                name,
+                f"a track of joint {nodes[joint].name!r} has {len(values)} values for {len(own_times)} keys",
             )
-        if channel.target.path == "rotation":
-            rotations[:, joint] = from_quat(values / np.linalg.norm(values, axis=-1, keepdims=True))
+        if track.target.path == "rotation":
+            values = from_quat(values / np.linalg.norm(values, axis=-1, keepdims=True))
+        if len(own_times) != frames or not np.allclose(own_times, times):  # on the frames, between its keys
+            at = np.interp(times, own_times, np.arange(len(own_times)))  # (T,) fractional key indices
+            at = np.floor(at) if sampler.interpolation == "STEP" else at
+            values = (
+                slerp_resample(values[:, None], at)[:, 0]
+                if track.target.path == "rotation"
+                else interpolate_rows(values, at)
+            )
+        if track.target.path == "rotation":
+            rotations[:, joint] = values
         else:
             translations[:, joint] = values
+    _under_nodes_above(document, joints[0], rotations, translations, offsets)
     names = tuple(node.name or f"joint{j}" for j, node in enumerate(nodes))
     repeated = next((joint for j, joint in enumerate(names) if joint in names[:j]), None)
     if repeated is not None:
@@ -99,6 +130,31 @@ def parse_glb(data: bytes, name: str) -> Motion:
     scaled = any(node.scale is not None and list(node.scale) != [1.0, 1.0, 1.0] for node in document.nodes)
     skeleton = Skeleton(names, parents, offsets, end_sites, unit_cm=None if scaled else UNITS["m"])
     return Motion(skeleton, rotations, translations, fps)
+
+
+def _under_nodes_above(
+    document: Any, root: int, rotations: FloatArray, translations: FloatArray, offsets: FloatArray
+) -> None:
+    """The skin's root joint (node `root`), its rotations (T, J, 3) and translations (T, J, 3) in place and its
+    rest offset, placed under the nodes above it that are no joints (an exporter's Armature, turned a quarter
+    to stand a Z-up rig along +Y): their rotations taken in, and their translations where no node scales (a
+    scale is the unit, guessed, and the lengths stay the joints' own)."""
+    parent_of = {child: node for node, entry in enumerate(document.nodes) for child in entry.children or []}
+    turn, shift, scaled = np.eye(3), np.zeros(3), False
+    node = parent_of.get(root)
+    while node is not None:  # from the root's parent up: each node's transform before the ones below it
+        entry = document.nodes[node]
+        scaled |= entry.scale is not None and list(entry.scale) != [1.0, 1.0, 1.0]
+        own = to_matrix(from_quat(np.asarray(entry.rotation or [0.0, 0.0, 0.0, 1.0], dtype=np.float64)))
+        shift = own @ shift + np.asarray(entry.translation or [0.0, 0.0, 0.0], dtype=np.float64)
+        turn = own @ turn
+        node = parent_of.get(node)
+    if np.allclose(turn, np.eye(3)) and (scaled or not np.any(shift)):
+        return
+    rotations[:, 0] = from_matrix(turn @ to_matrix(rotations[:, 0]))
+    placed = np.zeros(3) if scaled else shift
+    translations[:, 0] = translations[:, 0] @ turn.T + placed
+    offsets[0] = turn @ offsets[0] + placed
 
 
 # keyframe times may stray this share of a frame from an even grid: float32 times of an hour at 120 fps
