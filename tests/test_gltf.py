@@ -194,6 +194,53 @@ def test_units_does_not_apply_to_glb_clips_which_are_metres(three_channel_bvh: P
     assert centimetres_per_unit(in_units(read_bvh(target)[0], "cm").skeleton) == 1.0
 
 
+def test_a_gltf_json_file_and_scale_tracks_are_said(tmp_path: Path, three_channel_bvh: Path, caplog) -> None:  # type: ignore[no-untyped-def]
+    """A .gltf was answered "not a BVH file: starts with '{'", and scale tracks were dropped without a word."""
+    import logging
+
+    from elastyle import BvhError
+    from elastyle.io.dataset import read_clip
+
+    (tmp_path / "walk.gltf").write_text('{"asset": {"version": "2.0"}}')
+    with pytest.raises(
+        BvhError, match="a .gltf \\(JSON\\) file: elastyle reads binary glTF; export it as .glb"
+    ):
+        read_clip(tmp_path / "walk.gltf")
+    motion, _ = read_bvh(three_channel_bvh)
+    path = tmp_path / "tiny.glb"
+    write_clip(path, motion)
+    document = pygltflib.GLTF2().load(str(path))
+    animation = document.animations[0]
+    first = animation.channels[0]
+    blob = bytearray(document.binary_blob())
+    twice = np.full((motion.num_frames, 3), 2.0)
+    document.bufferViews.append(
+        pygltflib.BufferView(buffer=0, byteOffset=len(blob), byteLength=twice.size * 4)
+    )
+    blob.extend(twice.astype("<f4").tobytes())
+    document.accessors.append(
+        pygltflib.Accessor(bufferView=len(document.bufferViews) - 1, componentType=pygltflib.FLOAT,
+                           count=len(twice), type="VEC3")
+    )  # fmt: skip
+    sampler = animation.samplers[first.sampler]
+    animation.samplers.append(
+        pygltflib.AnimationSampler(input=sampler.input, output=len(document.accessors) - 1)
+    )
+    animation.channels.append(
+        pygltflib.AnimationChannel(
+            sampler=len(animation.samplers) - 1,
+            target=pygltflib.AnimationChannelTarget(node=first.target.node, path="scale"),
+        )
+    )
+    document.buffers[0].byteLength = len(blob)
+    document.set_binary_blob(bytes(blob))
+    scaled = tmp_path / "scaled.glb"
+    document.save_binary(str(scaled))
+    with caplog.at_level(logging.INFO, logger="elastyle"):
+        read_clip(scaled)
+    assert "the scale tracks of 1 joint(s)" in caplog.text and "every bone keeps its length" in caplog.text
+
+
 def test_glb_exports_with_an_armature_short_tracks_and_several_animations(
     tmp_path: Path, dataset_clips: list[ClipRef], caplog
 ) -> None:  # type: ignore[no-untyped-def]
@@ -270,6 +317,7 @@ def test_glb_exports_with_an_armature_short_tracks_and_several_animations(
     with caplog.at_level(logging.INFO, logger="elastyle"):
         read = read_clip(exported)[0]
     assert f"{exported} holds 2 animations: the first, 'motion', is read" in caplog.text
+    assert "scale tracks" not in caplog.text
     rotations = walk.rotations.copy()
     rotations[:, head] = rotations[0, head]  # as the two keys hold it
     held = Motion(walk.skeleton, rotations, walk.translations, walk.fps)

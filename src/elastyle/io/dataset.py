@@ -55,7 +55,10 @@ class ClipRef(NamedTuple):
         up: the BVH file's up axis, "y" or "z", or "auto" for the axis its body stands along
         (`core.up.standing_axis`); None: as `set_read_up` last said ("auto" unless told otherwise). A clip
         read with +Z up is turned to +Y up, and its layout turns it back where it is written."""
-        if Path(self.member or self.name).suffix.lower() == ".glb":
+        suffix = Path(self.member or self.name).suffix.lower()
+        if suffix == ".gltf":  # the JSON form, its buffers in other files
+            raise BvhError(self.name, "a .gltf (JSON) file: elastyle reads binary glTF; export it as .glb")
+        if suffix == ".glb":
             from elastyle.io.gltf_read import parse_glb
 
             motion = parse_glb(self.data(), self.name)

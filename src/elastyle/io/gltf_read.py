@@ -83,6 +83,16 @@ def parse_glb(data: bytes, name: str) -> Motion:
     ]  # fmt: skip
     if not tracks:
         raise BvhError(name, "the animation moves none of the skin's joints")
+    scaling = [
+        channel for channel in animation.channels
+        if channel.target.node in index and channel.target.path == "scale"
+        and not np.allclose(_accessor(document, animation.samplers[channel.sampler].output, name), 1.0)
+    ]  # fmt: skip
+    if scaling:
+        log.info(
+            "note: %s: the scale tracks of %d joint(s) (%s) are not read: every bone keeps its length",
+            name, len(scaling), document.nodes[scaling[0].target.node].name or "unnamed",
+        )  # fmt: skip
     # the frames: the keys of the track with the most (an exporter keeps two of a track that holds still)
     key_times = [_accessor(document, animation.samplers[track.sampler].input, name)[:, 0] for track in tracks]
     times = max(key_times, key=len)
