@@ -162,7 +162,7 @@ def _content_clips(specs: list[str], written: list[str]) -> list[str]:
     `UsageError` where they were all it found)."""
     from elastyle.io.dataset import CLIP_SUFFIXES, find_clips
 
-    outputs = {os.path.realpath(folder) for folder in written}
+    outputs = {os.path.normcase(os.path.realpath(folder)) for folder in written}
     clips: list[str] = []
     seen: set[str] = set()
     left = 0  # clips found in the outputs' folder
@@ -176,7 +176,7 @@ def _content_clips(specs: list[str], written: list[str]) -> list[str]:
             key = os.path.normcase(os.path.realpath(clip))
             if key in seen:
                 continue
-            if not one and os.path.dirname(key) in {os.path.normcase(folder) for folder in outputs}:
+            if not one and os.path.dirname(key) in outputs:
                 left += 1
                 continue
             seen.add(key)

@@ -133,7 +133,6 @@ SHORTEST_END_BONE = 0.6
 def _cut_short(model: Skeleton, clip: Skeleton, joint: int, theirs: int) -> bool:
     """Whether the clip joint `theirs`, matched to the model's end joint `joint`, has a bone shorter than
     `SHORTEST_END_BONE` of the model's, each relative to its skeleton's standing height."""
-
     model_bone = float(np.linalg.norm(model.offsets[joint])) / (standing_height(model) or 1.0)
     clip_bone = float(np.linalg.norm(clip.offsets[theirs])) / (standing_height(clip) or 1.0)
     return model_bone > 0 and clip_bone < SHORTEST_END_BONE * model_bone

@@ -105,12 +105,8 @@ def root_motion_joint(content: Motion) -> int | None:
     """The joint above the pelvis, nearest it, whose translation moves in the clip (`moved_joints`): a game
     rig's root-motion joint carrying the ground path; None where every joint above the pelvis stays put."""
     skeleton = content.skeleton
-    above = []  # the joints above the pelvis, nearest first
-    joint = int(skeleton.parents[skeleton.pelvis])
-    while joint >= 0:
-        above.append(joint)
-        joint = int(skeleton.parents[joint])
-    movers = moved_joints(content, above)
+    chain = skeleton.with_ancestors([skeleton.pelvis]).tolist()  # parents first, the pelvis last
+    movers = moved_joints(content, chain[-2::-1])  # the joints above it, nearest first
     return movers[0] if movers else None
 
 

@@ -31,6 +31,7 @@ def _fresh_lock_after_fork() -> None:
 
 if hasattr(os, "register_at_fork"):  # POSIX
     os.register_at_fork(after_in_child=_fresh_lock_after_fork)
+
 Params = ParamSpec("Params")
 Result = TypeVar("Result")
 

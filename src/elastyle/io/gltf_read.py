@@ -19,7 +19,7 @@ import numpy as np
 from elastyle.core.body import UNITS
 from elastyle.core.motion import Motion
 from elastyle.core.resample import interpolate_rows
-from elastyle.core.rotations import from_matrix, from_quat, slerp_resample, to_matrix
+from elastyle.core.rotations import from_matrix, from_quat, quat_to_matrix, slerp_resample, to_matrix
 from elastyle.core.skeleton import Skeleton
 from elastyle.errors import BvhError
 from elastyle.io.bvh_read import frame_rate
@@ -155,7 +155,8 @@ def _under_nodes_above(
     while node is not None:  # from the root's parent up: each node's transform before the ones below it
         entry = document.nodes[node]
         scaled |= entry.scale is not None and list(entry.scale) != [1.0, 1.0, 1.0]
-        own = to_matrix(from_quat(np.asarray(entry.rotation or [0.0, 0.0, 0.0, 1.0], dtype=np.float64)))
+        quaternion = np.asarray(entry.rotation or [0.0, 0.0, 0.0, 1.0], dtype=np.float64)
+        own = quat_to_matrix(quaternion / np.linalg.norm(quaternion))
         shift = own @ shift + np.asarray(entry.translation or [0.0, 0.0, 0.0], dtype=np.float64)
         turn = own @ turn
         node = parent_of.get(node)
