@@ -323,3 +323,47 @@ def test_glb_exports_with_an_armature_short_tracks_and_several_animations(
     held = Motion(walk.skeleton, rotations, walk.translations, walk.fps)
     assert read.num_frames == 60 and read.fps == walk.fps
     np.testing.assert_allclose(read.positions(), held.positions() * metres_per_unit(walk), atol=1e-5)
+
+
+def test_glb_with_joints_listed_children_first_and_interleaved_tracks(
+    dataset_clips: list[ClipRef], tmp_path: Path
+) -> None:
+    """glTF lets a skin list its joints in any order and a buffer view interleave several accessors (its
+    byteStride): a skin listed children first was refused, and interleaved tracks were read as each other's
+    values (a body in pieces, without a word)."""
+    from elastyle.io.dataset import read_clip
+
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0].slice(0, 30)
+    path = tmp_path / "walk.glb"
+    write_clip(path, walk)
+    document = pygltflib.GLTF2().load(str(path))
+    document.skins[0].joints = document.skins[0].joints[::-1]
+    # every rotation track's values in one view, row by row: joint 1's key 0, joint 2's key 0, ..., key 1 ...
+    animation = document.animations[0]
+    outputs = [
+        animation.samplers[c.sampler].output for c in animation.channels if c.target.path == "rotation"
+    ]
+    values = np.stack([_accessor(document, index) for index in outputs], axis=1)  # (keys, tracks, 4)
+    blob = bytearray(document.binary_blob())
+    document.bufferViews.append(
+        pygltflib.BufferView(
+            buffer=0, byteOffset=len(blob), byteLength=values.size * 4, byteStride=16 * len(outputs)
+        )
+    )
+    blob.extend(values.astype("<f4").tobytes())
+    for track, index in enumerate(outputs):
+        document.accessors[index].bufferView = len(document.bufferViews) - 1
+        document.accessors[index].byteOffset = 16 * track
+    document.buffers[0].byteLength = len(blob)
+    document.set_binary_blob(bytes(blob))
+    exported = tmp_path / "exported.glb"
+    document.save_binary(str(exported))
+    read = read_clip(exported)[0]
+    assert sorted(read.skeleton.names) == sorted(walk.skeleton.names)
+    assert read.skeleton.names[0] == walk.skeleton.names[0]
+    order = [read.skeleton.names.index(joint) for joint in walk.skeleton.names]
+    parents = [read.skeleton.names[p] if p >= 0 else None for p in read.skeleton.parents[order]]
+    assert parents == [walk.skeleton.names[p] if p >= 0 else None for p in walk.skeleton.parents]
+    np.testing.assert_allclose(
+        read.positions()[:, order], walk.positions() * metres_per_unit(walk), atol=1e-5
+    )

@@ -1,8 +1,8 @@
 """glTF 2.0 in: a skinned, animated `.glb` as a `Motion` (what `io.gltf_write` writes, and what engines and
 Blender export), so `.glb` clips can be viewed, converted and transferred like BVH.
 
-The first skin's joints are the skeleton (in their order, parents before children), each joint's rest
-translation its offset, its root under the rotations of the nodes above it (an exporter's Armature); the
+The first skin's joints are the skeleton (in their order, each moved after its parent where it is not),
+each joint's rest translation its offset, its root under the rotations of the nodes above it (an exporter's Armature); the
 first animation's rotation and translation tracks animate them, on the keyframe times of the track with the
 most keys (which must be evenly spaced: the frame rate), a track with fewer read between its own keys
 (linear, slerp, or held for STEP). Lengths stay in metres.
@@ -59,15 +59,13 @@ def parse_glb(data: bytes, name: str) -> Motion:
         raise BvhError(name, f"a damaged binary glTF file: {str(error) or type(error).__name__}") from None
     if not document.skins or not document.animations:
         raise BvhError(name, "a glTF file needs a skin (the skeleton) and an animation")
-    joints = list(document.skins[0].joints)
+    joints = _parents_first(document, list(document.skins[0].joints))
     index = {node: j for j, node in enumerate(joints)}
     parents = np.full(len(joints), -1, dtype=np.int64)
     for node, j in index.items():
         for child in document.nodes[node].children or []:
             if child in index:
                 parents[index[child]] = j
-    if any(parent >= j for j, parent in enumerate(parents)):
-        raise BvhError(name, "the skin's joints are not listed parents first")
     nodes = [document.nodes[node] for node in joints]
     offsets = np.array([node.translation or [0.0, 0.0, 0.0] for node in nodes], dtype=np.float64)
     rest_rotations = np.array([node.rotation or [0.0, 0.0, 0.0, 1.0] for node in nodes], dtype=np.float64)
@@ -142,6 +140,26 @@ def parse_glb(data: bytes, name: str) -> Motion:
     return Motion(skeleton, rotations, translations, fps)
 
 
+def _parents_first(document: Any, joints: list[int]) -> list[int]:
+    """A skin's joint nodes in the skin's order, moved where needed so that each comes after its parent (the
+    glTF format lets a skin list them in any order): depth first from the skin's top joints."""
+    listed = set(joints)
+    children: dict[int, list[int]] = {node: [] for node in joints}
+    has_parent: set[int] = set()
+    for node in joints:
+        for child in document.nodes[node].children or []:
+            if child in listed:
+                children[node].append(child)
+                has_parent.add(child)
+    order: list[int] = []
+    stack = [node for node in reversed(joints) if node not in has_parent]
+    while stack:
+        node = stack.pop()
+        order.append(node)
+        stack.extend(sorted(children[node], key=joints.index, reverse=True))
+    return order
+
+
 def _under_nodes_above(
     document: Any, root: int, rotations: FloatArray, translations: FloatArray, offsets: FloatArray
 ) -> None:
@@ -199,8 +217,10 @@ def _accessor(document: Any, accessor_index: int, name: str) -> FloatArray:
     view = document.bufferViews[accessor.bufferView]
     width = _WIDTH[accessor.type]
     start = (view.byteOffset or 0) + (accessor.byteOffset or 0)
+    stride = view.byteStride or 4 * width  # an interleaved view holds other accessors' values between rows
     blob = document.binary_blob() or b""
-    data = blob[start : start + 4 * width * accessor.count]
-    if len(data) < 4 * width * accessor.count:
+    size = stride * (accessor.count - 1) + 4 * width if accessor.count else 0
+    if stride < 4 * width or len(blob) < start + size:
         raise BvhError(name, "the binary chunk is shorter than its accessors say (truncated?)")
-    return np.frombuffer(data, dtype="<f4").reshape(accessor.count, width).astype(np.float64)
+    rows = np.ndarray((accessor.count, width), dtype="<f4", buffer=blob, offset=start, strides=(stride, 4))
+    return rows.astype(np.float64)
