@@ -735,3 +735,44 @@ def test_the_action_layout_names_every_descriptor_of_a_real_walk(clips: dict[str
     assert np.median(left[:, 0] - right[:, 0]) > 0.2  # +X is the left in the heading frame
     assert set(layout.parts) == {"legs", "spine", "left-arm", "right-arm"}
     np.testing.assert_array_equal(layout.place, [*layout.feet, *layout.pelvis_height])
+
+
+def _arm_swing(motion: Motion, hand: str) -> float:
+    """How far a hand swings (cm): the spread (standard deviation) of its place relative to the hips over
+    the clip's middle 80 %, the ends left out (an arm eases in from the content's there)."""
+    names = motion.skeleton.names
+    place = motion.positions()[:, names.index(hand)] - motion.positions()[:, names.index("Hips")]
+    middle = place[len(place) // 10 : len(place) - len(place) // 10]
+    return float(np.sqrt(np.sum(np.var(middle, axis=0))))
+
+
+def _with_arm_swing(motion: Motion, scale: float, sides: str) -> Motion:
+    """The clip with the arm rotations (exponential maps) of `sides` ("L", "R" or "LR") moved to `scale` of
+    their distance from their median: 0 holds an arm still (a hand carrying something), 0.2 a small swing
+    (a downcast walk)."""
+    joints = ("Shoulder", "UpperArm", "LowerArm", "Hand")
+    arm = [motion.skeleton.names.index(f"{joint}_{side}") for side in sides for joint in joints]
+    rotations = motion.rotations.copy()
+    middle = np.median(rotations[:, arm], axis=0)
+    rotations[:, arm] = middle + scale * (rotations[:, arm] - middle)
+    return Motion(motion.skeleton, rotations, motion.translations, motion.fps)
+
+
+def test_a_walks_small_swing_is_its_manner_but_a_hand_held_still_is_the_contents_action(
+    model, dataset_clips: list[ClipRef]
+) -> None:  # type: ignore[no-untyped-def]
+    """Both walks step alike: a slower style whose arms swing a fifth as far (a downcast walk) gives the
+    output its small swing, where the arms kept the content's full swing as another action (their rhythm
+    differed); a content whose hand holds still (carrying) keeps it still under a walk's full swing."""
+    content = clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0]
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_010").read()[0]
+    slow = walk.resample(1.3 * walk.fps)  # 1.3 times as long at the same rate: a slower walk
+    downcast = _with_arm_swing(Motion(walk.skeleton, slow.rotations, slow.translations, walk.fps), 0.2, "LR")
+    out = transfer(content, downcast, model=model).motion
+    assert _arm_swing(out, "Hand_L") < 0.5 * _arm_swing(content, "Hand_L")
+    assert _arm_swing(out, "Hand_L") < 1.5 * _arm_swing(downcast, "Hand_L")
+    carrying = _with_arm_swing(content, 0.0, "R")
+    out = transfer(
+        carrying, clip_named(dataset_clips, "dataset-2_walk_active_010").read()[0], model=model
+    ).motion
+    assert _arm_swing(out, "Hand_R") < 0.3 * _arm_swing(content, "Hand_R")

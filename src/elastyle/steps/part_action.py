@@ -82,6 +82,7 @@ def part_keeps(
     posture: dict[str, FloatArray] = {}
     in_place = np.ones_like(grid)  # (G,) where the content does not travel
     in_place_under_travel = np.zeros_like(grid)  # (G,) where the content keeps its place, the windows travel
+    stepping_alike = np.zeros_like(grid)  # (G,) where the content travels, its legs acting as the windows'
     if layout is not None:
         shifted_mismatch = part_mismatch(content_actions, library.actions, shifted, patch_frames, layout.legs)
         # a turning walk matched against straight windows keeps its turn, and the other way round
@@ -140,6 +141,7 @@ def part_keeps(
             )
         )
         in_place_under_travel = share * in_place * np.clip(windows_travel, 0.0, 1.0)
+        stepping_alike = (1 - share) * travelling * np.clip(windows_travel, 0.0, 1.0)
     if "spine" in parts:
         lean_columns = parts["spine"]
         lean = [
@@ -182,6 +184,10 @@ def part_keeps(
         for values, above in ((offset, config.arm_offset_above), (rhythm, config.arm_rhythm_above)):
             plain, held = keep_share(values, above, ease), keep_share(values, above, ease, held=True)
             shares.append(plain + sways_more * (held - plain))
+        # where both walk alike, the arms swing with the stride: where the windows' hand goes back and forth
+        # less, that is the swing's manner (a sad walk's hanging arms, a heavy walk's slow swing), not another
+        # action, so the rhythm does not count there; where the content's does less, it holds something still
+        shares[1] *= 1 - stepping_alike * (1 - sways_more)
         # where the content keeps its place, and its legs their action, while the windows travel, their arms
         # swing with the stride: the arm keeps the content's action whatever it does (punches, which come and go
         # like a swing, took a walk's swing)
