@@ -371,6 +371,30 @@ def test_a_turning_walk_given_a_straight_walks_style_keeps_its_turning_steps(
     assert distance(result.motion) < 0.7 * distance(swapped.motion)
 
 
+def test_a_turning_walk_keeps_its_turning_steps_at_the_styles_cadence(
+    model, dataset_clips: list[ClipRef]
+) -> None:  # type: ignore[no-untyped-def]
+    """Turning steps are the content's action, not its pace: a turning walk given a straight walk's style
+    steps at the style's cadence and turns as far (where the legs kept the turn they kept the content's
+    cadence too: 1.95 steps/s against the style's 2.15 and the content's 1.80)."""
+    from elastyle.core.body import heading_yaw, pelvis_forward_local
+
+    turn = clip_named(dataset_clips, "dataset-2_walk-turn-left_normal_005").read()[0]
+    straight = clip_named(dataset_clips, "dataset-2_walk_elderly_010").read()[0]
+    out = transfer(turn, straight, model=model).motion
+    cadence = {
+        name: cadence_steps_s(clip) for name, clip in (("content", turn), ("style", straight), ("out", out))
+    }
+    assert abs(cadence["out"] - cadence["style"]) < 0.35 * abs(cadence["content"] - cadence["style"]), cadence
+
+    def turned(motion: Motion) -> float:
+        pelvis = motion.world()[0][:, motion.skeleton.names.index("Hips")]
+        yaw = np.unwrap(heading_yaw(pelvis, pelvis_forward_local(motion.skeleton)))
+        return float(np.degrees(yaw[-1] - yaw[0]))
+
+    assert abs(turned(out) - turned(turn)) < 5.0
+
+
 def _planted_toe_speed(motion: Motion) -> float:
     """Mean horizontal speed (file units per second) of the toes over frame steps where the clip's own
     contacts hold the foot at both ends."""

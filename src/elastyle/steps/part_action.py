@@ -38,13 +38,16 @@ class PartKeeps(NamedTuple):
     """Per body part (`StyleTrack`'s fields of the same names): mismatch, each patch's action mismatch (P,);
     measures, each patch's other measures; keep (G,), the share of the content's own action; other_action
     (G,), where it keeps it because the windows perform another action; posture (G,), where the change the
-    matched windows make to it counts towards the style's mean posture."""
+    matched windows make to it counts towards the style's mean posture; own_pace (G,), where the legs keep
+    the content's pace: where they keep its action for another gait or place, not for another turn alone (a
+    turning walk's legs keep its turning steps at the style's cadence)."""
 
     mismatch: dict[str, FloatArray]
     measures: dict[str, dict[str, FloatArray]]
     keep: dict[str, FloatArray]
     other_action: dict[str, FloatArray]
     posture: dict[str, FloatArray]
+    own_pace: FloatArray
 
 
 def part_keeps(
@@ -81,6 +84,7 @@ def part_keeps(
     other_action: dict[str, FloatArray] = {}
     posture: dict[str, FloatArray] = {}
     in_place = np.ones_like(grid)  # (G,) where the content does not travel
+    own_pace = np.zeros_like(grid)  # (G,) where the legs keep the content's pace
     in_place_under_travel = np.zeros_like(grid)  # (G,) where the content keeps its place, the windows travel
     stepping_alike = np.zeros_like(grid)  # (G,) where the content travels, its legs acting as the windows'
     if layout is not None:
@@ -123,6 +127,7 @@ def part_keeps(
             in_place_share = keep_share(on_grid(*place), config.legs_place_above, ease, held=True)
             shares.append(in_place_share * in_place)
         share = np.max(shares, axis=0)
+        own_pace = np.max([shares[0], *shares[2:]], axis=0)  # not the turn's: turning steps take any pace
         keep = {"legs": share, "spine": share}
         posture["spine"] = share
         # legs that do not travel take none of a stepping style's statistics: its legs' mean is a stride's
@@ -194,7 +199,7 @@ def part_keeps(
         keep[part] = np.max(
             [*shares, end_share(grid, ARM_ENDS_PATCHES * patch_frames), in_place_under_travel], axis=0
         )
-    return PartKeeps(mismatch, measures, keep, other_action, posture)
+    return PartKeeps(mismatch, measures, keep, other_action, posture, own_pace)
 
 
 def part_mismatch(

@@ -182,8 +182,8 @@ def style_track(
         log_rate = (1 - fallback) * log_rate  # the content's own pace where it keeps its action
 
     # per body part: where it does another action than the matched windows (legs: a walk matched against a
-    # run or a wave; an arm: a raise against a wave), it keeps the content's action; legs and spine keep the
-    # content's pace too
+    # run or a wave; an arm: a raise against a wave), it keeps the content's action; legs of another gait or
+    # place keep the content's pace too (turning steps take the style's)
     def on_grid(values: FloatArray, shifted_values: FloatArray) -> FloatArray:
         """(G,) per-patch values of both sequences (P,), (P - 1,), cross-faded as the latents are."""
         return (weight_a * cover_a.values(values) + weight_b * cover_b.values(shifted_values)) / total
@@ -192,11 +192,13 @@ def style_track(
         content_actions, library, (patches, shifted), patch_frames, layout, config, fps, on_grid,
         grid, ease,
     )  # fmt: skip
-    if "legs" in parts.keep:
-        log_rate = (1 - parts.keep["legs"]) * log_rate
+    log_rate = (1 - parts.own_pace) * log_rate
     # colour with the style's statistics
     coloured = library.stats.colour(white, config.whiten_floor)
-    return StyleTrack(coloured, log_rate, patches, patch_frames, fallback, *parts)
+    return StyleTrack(
+        coloured, log_rate, patches, patch_frames, fallback, parts.mismatch, parts.measures, parts.keep,
+        parts.other_action, parts.posture,
+    )  # fmt: skip
 
 
 def side_guard(
