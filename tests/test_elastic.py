@@ -143,3 +143,31 @@ def test_side_guard_reads_each_window_of_a_real_library(dataset_clips) -> None: 
     assert np.array_equal(
         windows.best(frames, start, length, excluded)[0], windows.best(frames, start, length)[0]
     )
+
+
+def test_a_handicapped_window_is_taken_only_where_it_matches_better_by_its_handicap() -> None:
+    """A clip and a copy of it handicapped by 0.03 (as a style's mirror is), the copy's window at frame 20
+    changed: a query that is that window takes the clip's own where the clip's is within the handicap of
+    it, the copy's where it is not; the similarity given back is the window's own, without the handicap."""
+    rng = np.random.default_rng(1)
+    clip = rng.standard_normal((40, 6))
+    windows_of = {}
+    for change in (0.1, 0.6):
+        copy = clip.copy()
+        copy[20:32] += change * rng.standard_normal((12, 6))
+        library = np.concatenate([clip, copy])
+        handicap = np.repeat([0.0, 0.03], 40)
+        windows = StyleWindows(library, np.array([0, 40]), 12, handicap=handicap)
+        query = copy[20:32]
+        own = _brute_force_best(library, [20], query)[1]  # the clip's window at 20 against the copy's (1.0)
+        index, score = windows.best(query, [0.0], [12.0])
+        windows_of[change] = int(index[0]), own
+        assert (
+            abs(windows.similarity(index, score)[0] - _brute_force_best(library, [int(index[0])], query)[1])
+            < 1e-5
+        )
+        assert (
+            StyleWindows(library, np.array([0, 40]), 12).best(query, [0.0], [12.0])[0][0] == 60
+        )  # no handicap
+    assert windows_of[0.1][1] > 0.97 and windows_of[0.1][0] == 20  # within the handicap: the clip's own
+    assert windows_of[0.6][1] < 0.97 and windows_of[0.6][0] == 60  # far better: the copy's

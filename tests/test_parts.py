@@ -800,3 +800,39 @@ def test_a_walks_small_swing_is_its_manner_but_a_hand_held_still_is_the_contents
         carrying, clip_named(dataset_clips, "dataset-2_walk_active_010").read()[0], model=model
     ).motion
     assert _arm_swing(out, "Hand_R") < 0.3 * _arm_swing(content, "Hand_R")
+
+
+def _elbow_bent(motion: Motion, side: str) -> float:
+    """How far an elbow bends at its most (degrees, the 10th percentile of the angle between upper arm and
+    forearm over the clip: 180 straight)."""
+    names, positions = motion.skeleton.names, motion.positions()
+    shoulder, elbow, hand = (
+        positions[:, names.index(f"{joint}_{side}")] for joint in ("UpperArm", "LowerArm", "Hand")
+    )
+    upper, fore = shoulder - elbow, hand - elbow
+    cosine = np.sum(upper * fore, axis=1) / np.linalg.norm(upper, axis=1) / np.linalg.norm(fore, axis=1)
+    return float(np.percentile(np.degrees(np.arccos(np.clip(cosine, -1, 1))), 10))
+
+
+def test_a_style_held_to_one_side_stays_on_its_side(model, dataset_clips: list[ClipRef]) -> None:  # type: ignore[no-untyped-def]
+    """A walk whose left arm is held still, bent 60 degrees more (a hand in a pocket): its mirror, in the
+    library by default, matched a hair better here and there, and the right elbow bent as far (116 degrees at
+    its most, against the content's 146). The clip is read as held to one side (a two-sided walk is not), so
+    its windows as performed come first."""
+    from elastyle.core.rotations import from_matrix, to_matrix
+    from elastyle.steps.library import prepare_style
+
+    walk = _with_arm_swing(clip_named(dataset_clips, "dataset-2_walk_normal_010").read()[0], 0.0, "L")
+    turn = np.radians(60.0)
+    bend = np.array([[np.cos(turn), -np.sin(turn), 0], [np.sin(turn), np.cos(turn), 0], [0, 0, 1]])
+    rotations = walk.rotations.copy()
+    forearm = walk.skeleton.names.index("LowerArm_L")
+    rotations[:, forearm] = from_matrix(to_matrix(rotations[:, forearm]) @ bend)
+    pocket = Motion(walk.skeleton, rotations, walk.translations, walk.fps)
+    content = clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0]
+    library = prepare_style(model, pocket)
+    assert library.one_sided[0] is not None and library.one_sided[0][0] == "LowerArm_L"
+    assert prepare_style(model, content).one_sided == [None, None]
+    out = transfer(content, library, model=model).motion
+    assert _elbow_bent(out, "L") < _elbow_bent(content, "L") - 15
+    assert _elbow_bent(out, "R") > _elbow_bent(content, "R") - 10

@@ -43,8 +43,9 @@ def cache_folder() -> Path:
 # smoothed to the clip's ends (`core.smoothing.smooth_path`: the latents near its ends change); 7: clips standing
 # along +Z read turned to +Y up (`core.up`), the reading's --up in the key; 8: a clip read under other joint names
 # mirrored by the model's names (`steps.library`); 9: the clips' reading notes kept, said again on a hit; 11: mirror
-# axes per rig (`core.mirror`); 12: the trunk's lean among the action descriptors; 13: the pelvis's height
-CACHE_VERSION = 13
+# axes per rig (`core.mirror`); 12: the trunk's lean among the action descriptors; 13: the pelvis's height;
+# 14: which clips are held to one side (`StyleLibrary.one_sided`)
+CACHE_VERSION = 14
 Note = tuple[int, str]  # a logging level and the text said at it
 
 
@@ -86,9 +87,13 @@ def load_library(
                 spans = _spans(archive["clip_starts"], len(latents))
                 backwards = [bool(b) for b in archive["backwards"]] if "backwards" in archive else None
                 notes = list(zip(archive["note_levels"].tolist(), archive["notes"].tolist()))
+                one_sided = [
+                    (str(joint), float(degrees)) if joint else None
+                    for joint, degrees in zip(archive["sided_joints"], archive["sided_degrees"])
+                ]
                 library = StyleLibrary.of_latents(
                     names, [bool(m) for m in archive["mirrored"]], [latents[a:b] for a, b in spans],
-                    [actions[a:b] for a, b in spans], backwards, model,
+                    [actions[a:b] for a, b in spans], backwards, model, one_sided,
                 )  # fmt: skip
             log.debug("style library from cache %s", path)
             _say(notes)
@@ -112,6 +117,8 @@ def load_library(
                 backwards=np.array(library.backwards, dtype=bool),
                 note_levels=np.array([level for level, _ in notes], dtype=np.int64),
                 notes=np.array([text for _, text in notes], dtype=str),
+                sided_joints=np.array([side[0] if side else "" for side in library.sided], dtype=str),
+                sided_degrees=np.array([side[1] if side else np.nan for side in library.sided]),
             )  # fmt: skip
             write_bytes_atomic(path, buffer.getvalue(), force=True)
             prune_cache(path.parent, cache_limit_bytes(), keep=path)

@@ -96,6 +96,9 @@ class StyleWindows:
     windows it picks others than every frame would (`TransferConfig.match_step_s`: off by default).
 
     valid: (N,) False for windows that would cross from one library clip into the next.
+    handicap: (N,) what a window's similarity must exceed another's by to be taken before it (the
+    style's mirrored clips: `steps.library.MIRROR_HANDICAP`); `best` ranks by similarity minus handicap
+    and returns that score, `similarity` turns it back.
     """
 
     CHUNK_BYTES = 4 << 20  # products and gathered rows per chunk of windows ...
@@ -103,7 +106,12 @@ class StyleWindows:
     GROUP_ROWS = 1024  # queries are taken in groups of at most this many gathered rows (2 per frame)
 
     def __init__(
-        self, white_library: FloatArray, clip_starts: IntArray, patch_frames: int, frame_step: int = 1
+        self,
+        white_library: FloatArray,
+        clip_starts: IntArray,
+        patch_frames: int,
+        frame_step: int = 1,
+        handicap: FloatArray | None = None,
     ) -> None:
         total = white_library.shape[0]
         self.patch_frames = patch_frames
@@ -122,6 +130,17 @@ class StyleWindows:
             valid[start : max(start, end - patch_frames + 1)] = True
         self.valid: BoolArray = valid
         self._invalid: BoolArray = ~valid
+        self.handicap: Float32Array | None = (
+            None
+            if handicap is None or not np.any(handicap)
+            else np.asarray(handicap[: self.num_windows], dtype=np.float32)
+        )
+
+    def similarity(self, index: IntArray, score: FloatArray) -> FloatArray:
+        """The cosine similarity (Q,) of windows index (Q,) that `best` ranked with `score` (Q,)."""
+        if self.handicap is None:
+            return np.asarray(score, dtype=np.float64)
+        return np.asarray(score, dtype=np.float64) + self.handicap[index]
 
     @property
     def compared_frames(self) -> int:
@@ -132,7 +151,8 @@ class StyleWindows:
         self, content: FloatArray, starts: npt.ArrayLike, lengths: npt.ArrayLike, excluded: Exclusion | None
     ) -> Iterator[tuple[IntArray, int, int, Float32Array]]:
         """(queries (q,) of a group, first, last, cosine similarity (q, last - first) of those queries with
-        windows first..last-1); -inf where a window is invalid or `excluded` (first, last, queries) marks it."""
+        windows first..last-1, less each window's handicap); -inf where a window is invalid or `excluded`
+        (first, last, queries) marks it."""
         compared = np.arange(self.compared_frames) * self.frame_step  # (Lc,) the compared frames f
         positions = span_positions(starts, lengths, self.patch_frames, compared)  # (Q, Lc)
         lower, upper, weight = bracket(positions.ravel(), content.shape[0])  # (Q * Lc,) each
@@ -172,6 +192,8 @@ class StyleWindows:
                 dots = (weights @ shifted[gathered_rows, offsets])[:, 0]  # (q, last - first)
                 dots *= inverse_lengths[:, None]
                 dots *= self.inverse_norms[first:last]
+                if self.handicap is not None:
+                    dots -= self.handicap[first:last]
                 np.copyto(dots, np.float32(-np.inf), where=self._invalid[first:last])
                 if excluded is not None:
                     np.copyto(dots, np.float32(-np.inf), where=excluded(first, last, queries))
@@ -187,6 +209,8 @@ class StyleWindows:
         similarity = np.full((count, self.num_windows), -np.inf, dtype=np.float32)
         for queries, first, last, dots in self._similarity_chunks(content, starts, lengths, None):
             similarity[queries, first:last] = dots
+        if self.handicap is not None:
+            similarity += self.handicap
         return similarity
 
     def best(
@@ -197,8 +221,9 @@ class StyleWindows:
         excluded: Exclusion | None = None,
     ) -> tuple[IntArray, FloatArray]:
         """For the content (T, Z) spans [start, start + length) (Q,), each read at L frames: the best window
-        index (Q,) and its cosine similarity (Q,), among the windows `excluded` (first, last, queries (q,))
-        -> (q, last - first) does not mark for each query.
+        index (Q,) and its score (Q,), its cosine similarity less its handicap (`similarity` gives it back),
+        among the windows `excluded` (first, last, queries (q,)) -> (q, last - first) does not mark for each
+        query.
 
         Reduced chunk by chunk, so many queries against a long library never hold a (Q, N) matrix.
         """
@@ -297,9 +322,10 @@ def search_sequential(
                 lengths = np.array([patch_frames])
         starts = np.full(len(lengths), cursor)
         excluded = guard_exclusion(guard, starts, lengths, patch_frames)
-        index, similarity = windows.best(white_content, starts, lengths, excluded)
-        choice = int(np.argmax(similarity))
-        patches.append(Patch(cursor, float(lengths[choice]), int(index[choice]), float(similarity[choice])))
+        index, score = windows.best(white_content, starts, lengths, excluded)
+        choice = int(np.argmax(score))
+        similarity = windows.similarity(index[choice : choice + 1], score[choice : choice + 1])[0]
+        patches.append(Patch(cursor, float(lengths[choice]), int(index[choice]), float(similarity)))
         cursor += float(lengths[choice])
     return patches
 
@@ -318,9 +344,10 @@ def search_fixed(
     lengths = np.tile(source_lengths, num_patches)  # (P * S,)
     starts = np.repeat(centres, len(source_lengths)) - lengths / 2
     excluded = guard_exclusion(guard, starts, lengths, patch_frames)
-    found = windows.best(white_content, starts, lengths, excluded)
-    index, similarity = (a.reshape(num_patches, -1) for a in found)  # (P, S)
-    choice = np.argmax(similarity, axis=1)
+    index, score = windows.best(white_content, starts, lengths, excluded)
+    index, score = index.reshape(num_patches, -1), score.reshape(num_patches, -1)  # (P, S)
+    similarity = windows.similarity(index, score)
+    choice = np.argmax(score, axis=1)
     # placed at the content's grid: consumes exactly L content frames whatever the stretch
     return [
         Patch(i * patch_frames, float(patch_frames), int(index[i, c]), float(similarity[i, c]))
@@ -340,5 +367,6 @@ def half_shifted(
         return []
     starts, lengths = np.array(spans).T
     excluded = guard_exclusion(guard, starts, lengths, windows.patch_frames)
-    index, similarity = windows.best(white_content, starts, lengths, excluded)
+    index, score = windows.best(white_content, starts, lengths, excluded)
+    similarity = windows.similarity(index, score)
     return [Patch(s, n, int(i), float(v)) for (s, n), i, v in zip(spans, index, similarity)]

@@ -101,6 +101,16 @@ def patch_notes(
             f"note: {', '.join(short)}: shorter than a patch ({patch_frames / fps:.2f} s), so none of its windows "
             "is matched; it adds only to the style's statistics"
         )))  # fmt: skip
+    sided = {
+        name: side for name, side, mirrored in zip(library.names, library.sided, library.mirrored)
+        if side is not None and mirrored
+    }  # fmt: skip
+    for name, (joint, degrees) in sided.items():
+        notes.append((logging.INFO, (
+            f"note: {name}: its manner is held to one side (its {joint} {degrees:.0f} degrees from its mirror's), so "
+            "its mirror is taken only where it matches clearly better (a hand or a turn the other way); "
+            "--no-mirror-style leaves the mirror out"
+        )))  # fmt: skip
     return notes
 
 
