@@ -629,6 +629,17 @@ def test_a_bow_given_a_waves_style_still_bows(
     assert _trunk_tilt_degrees(upright).max() < 10.0
 
 
+def test_a_bow_shorter_than_a_patch_keeps_its_depth(model, dataset_clips: list[ClipRef]) -> None:  # type: ignore[no-untyped-def]
+    """A 4-second clip bowing down and straight up again (its deepest a moment long) given a wave's style:
+    the lean offset is the largest over a patch's frames, not of its means, and its keep held at the peak,
+    so the output bows as deep (31 degrees off upright: the means halved it, 22; now 28)."""
+    standing = clip_named(dataset_clips, "dataset-2_wave-right-hand_normal_010").read()[0]
+    bow = _bowed(standing, 4.0, 55.0)
+    style = clip_named(dataset_clips, "dataset-2_wave-right-hand_feminine_005").read()[0]
+    out = transfer(bow, style, model=model).motion
+    assert _trunk_tilt_degrees(out).max() > 0.85 * _trunk_tilt_degrees(bow).max()
+
+
 def _crouched(motion: Motion, seconds: float, depth_cm: float) -> Motion:
     """The first frame of `motion` held for `seconds`, its pelvis lowered by `depth_cm` from 1 s on, held,
     and raised again by 1 s before the end, the feet kept where they stand (two-joint leg IK): a crouch,

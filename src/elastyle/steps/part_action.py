@@ -150,15 +150,13 @@ def part_keeps(
     if "spine" in parts:
         lean_columns = parts["spine"]
         lean = [
-            mean_gap(
-                content_actions[:, lean_columns], library.actions[:, lean_columns], sequence, patch_frames
-            )
+            _largest_gap(content_actions, library.actions, sequence, patch_frames, lean_columns)
             for sequence in (patches, shifted)
         ]
         measures["spine"] = {"lean_offset": lean[0]}
         # only where the content does not travel: there a lean is an action (a bow, a reach down); a travelling
         # body's lean is its gait's manner (a youthful run leans 0.19 legs further forward than a normal one)
-        leans = keep_share(on_grid(*lean), config.spine_lean_above, ease) * in_place
+        leans = keep_share(on_grid(*lean), config.spine_lean_above, ease, held=True) * in_place
         keep["spine"] = np.maximum(keep.get("spine", 0.0), leans)
         posture["spine"] = posture.get("spine", np.zeros_like(grid)) * (1 - leans)
     for part, hand in ({} if layout is None else layout.arm_hands).items():
