@@ -165,3 +165,21 @@ def test_a_paths_smoothing_keeps_steady_travel_to_its_ends() -> None:
     path = smooth_path(travel + sway, 3.0)
     assert np.max(np.abs(path - travel)[:-8]) < 0.05
     np.testing.assert_allclose(path[[0, -1]], (travel + sway)[[0, -1]], atol=1e-9)
+
+
+def test_a_two_sided_walk_is_not_read_as_one_sided_even_with_a_bone_of_no_length(dataset_clips) -> None:  # type: ignore[no-untyped-def]
+    """A joint whose first child sits at the joint itself (a zero-length bone, as some exporters write a
+    neck or a twist joint) pointed nowhere, which read as 90 degrees from its mirror: every clip of such a
+    rig was taken for one held to one side."""
+    from elastyle.core.mirror import ONE_SIDED_DEGREES, asymmetry, mirror
+    from elastyle.core.skeleton import Skeleton
+
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0]
+    assert asymmetry(walk, mirror(walk)).degrees < ONE_SIDED_DEGREES
+    offsets = walk.skeleton.offsets.copy()
+    offsets[walk.skeleton.index("Neck")] = 0.0
+    skeleton = Skeleton(walk.skeleton.names, walk.skeleton.parents, offsets, walk.skeleton.end_sites)
+    translations = walk.translations.copy()
+    translations[:, walk.skeleton.index("Neck")] = 0.0
+    zero = Motion(skeleton, walk.rotations, translations, walk.fps)
+    assert asymmetry(zero, mirror(zero)).degrees < ONE_SIDED_DEGREES

@@ -367,3 +367,23 @@ def test_glb_with_joints_listed_children_first_and_interleaved_tracks(
     np.testing.assert_allclose(
         read.positions()[:, order], walk.positions() * metres_per_unit(walk), atol=1e-5
     )
+
+
+def test_a_skin_listed_parents_first_keeps_its_order(dataset_clips: list[ClipRef], tmp_path: Path) -> None:
+    """A skin listed breadth first (every parent before its children, though not depth first) is read in
+    its own order: only a skin that lists a child before its parent is reordered."""
+    from elastyle.io.dataset import read_clip
+
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0].slice(0, 10)
+    path = tmp_path / "walk.glb"
+    write_clip(path, walk)
+    document = pygltflib.GLTF2().load(str(path))
+    depth = [0] * walk.skeleton.num_joints
+    for joint, parent in enumerate(walk.skeleton.parents):
+        depth[joint] = depth[parent] + 1 if parent >= 0 else 0
+    order = sorted(range(walk.skeleton.num_joints), key=lambda joint: depth[joint])
+    assert order != list(range(walk.skeleton.num_joints))
+    document.skins[0].joints = [document.skins[0].joints[joint] for joint in order]
+    exported = tmp_path / "breadth_first.glb"
+    document.save_binary(str(exported))
+    assert read_clip(exported)[0].skeleton.names == tuple(walk.skeleton.names[joint] for joint in order)

@@ -17,6 +17,7 @@ import numpy as np
 
 from elastyle.core.body import heading_yaw, pelvis_forward_local, yaw_matrices
 from elastyle.core.motion import Motion
+from elastyle.core.parts import subtree
 from elastyle.core.rotations import from_matrix
 from elastyle.core.skeleton import Skeleton, check_mirrorable
 from elastyle.types import FloatArray, IntArray
@@ -150,7 +151,7 @@ def unpaired_note(skeleton: Skeleton, name: str) -> str | None:
 # many degrees otherwise than in the clip's mirror. Of the dataset's two-sided takes (a quarter of them), 1 of
 # 44 walks passes it (their 90th percentile 25, at most 48), no turn (at most 41), 2 of 161 both-handed
 # gestures, 4 of 79 runs (their 90th percentile 34); a hand held in a pocket reads 58, a head tilted 25
-# degrees 50, every one-handed gesture 100 and more
+# degrees 50, the dataset's one-handed gestures 89 and more
 ONE_SIDED_DEGREES = 45.0
 
 
@@ -165,13 +166,14 @@ class Asymmetry(NamedTuple):
 def asymmetry(motion: Motion, mirrored: Motion) -> Asymmetry:
     """The `Asymmetry` of a clip and its mirror (`mirror`), over the joints below the pelvis: each joint's
     direction is its bone (towards its first child, else its end site, else from its parent) turned by its
-    world rotation, in the body's heading frame, averaged over the clip's frames."""
+    world rotation, in the body's heading frame, averaged over the clip's frames (the first child with a
+    bone of some length; a joint with none is left out)."""
     skeleton = motion.skeleton
-    bones = np.zeros((skeleton.num_joints, 3))
+    bones = np.zeros((skeleton.num_joints, 3))  # (J, 3) unit bones; zero where a joint has none of length
     for joint in range(skeleton.num_joints):
-        children = skeleton.children(joint)
-        end = np.nan_to_num(skeleton.end_sites[joint])
-        bone = skeleton.offsets[children[0]] if children else end if np.any(end) else skeleton.offsets[joint]
+        candidates = [skeleton.offsets[c] for c in skeleton.children(joint)]
+        candidates += [np.nan_to_num(skeleton.end_sites[joint]), skeleton.offsets[joint]]
+        bone = next((b for b in candidates if np.linalg.norm(b) > 1e-9), np.zeros(3))
         bones[joint] = bone / max(float(np.linalg.norm(bone)), 1e-12)
     forward = pelvis_forward_local(skeleton)
 
@@ -183,16 +185,9 @@ def asymmetry(motion: Motion, mirrored: Motion) -> Asymmetry:
 
     cosine = np.sum(mean_directions(motion) * mean_directions(mirrored), axis=-1)  # (J,)
     below = np.zeros(skeleton.num_joints, dtype=bool)
-    below[_descendants(skeleton, skeleton.pelvis)] = True
+    below[subtree(skeleton, skeleton.pelvis)] = True
+    below[skeleton.pelvis] = False
+    below &= np.any(bones != 0, axis=1)  # a joint without a bone points nowhere
     degrees = np.where(below, np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))), 0.0)
     joint = int(np.argmax(degrees))
     return Asymmetry(float(degrees[joint]), joint)
-
-
-def _descendants(skeleton: Skeleton, joint: int) -> list[int]:
-    """The joints below `joint` (not itself)."""
-    below, frontier = [], skeleton.children(joint)
-    while frontier:
-        below += frontier
-        frontier = [child for j in frontier for child in skeleton.children(j)]
-    return below

@@ -151,12 +151,15 @@ def _parents_first(document: Any, joints: list[int]) -> list[int]:
             if child in listed:
                 children[node].append(child)
                 has_parent.add(child)
+    position = {node: j for j, node in enumerate(joints)}
+    if all(position[parent] < position[child] for parent in joints for child in children[parent]):
+        return joints  # listed parents first already: kept as it is
     order: list[int] = []
     stack = [node for node in reversed(joints) if node not in has_parent]
     while stack:
         node = stack.pop()
         order.append(node)
-        stack.extend(sorted(children[node], key=joints.index, reverse=True))
+        stack.extend(sorted(children[node], key=position.__getitem__, reverse=True))
     return order
 
 

@@ -122,8 +122,9 @@ class TransferConfig:
     legs_turning_above: float = option(
         0.5,
         "per body part: where the legs' sustained turning (yaw rate low-passed over 0.5 s) differs from the "
-        "matched style windows' by more than this (rad/s), the legs and spine keep the content's action and "
-        "pace, eased in over 0.15 above it (a turning walk given a straight walk's style still turns); 9: never",
+        "matched style windows' by more than this (rad/s), the legs and spine keep the content's action (its "
+        "turning steps, at the style's cadence), eased in over 0.15 above it (a turning walk given a straight "
+        "walk's style still turns); 9: never",
         low=0.0, high=9.0,
     )  # fmt: skip
     legs_place_above: float = option(

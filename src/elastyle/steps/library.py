@@ -81,7 +81,7 @@ class StyleLibrary:
         key = (patch_frames, floor, action_weight, frame_step)
         if key not in self._windows:
             frames = match_frames(self.white(floor), self.actions, action_weight)
-            clip = np.searchsorted(self.clip_starts, np.arange(len(frames)), side="right") - 1
+            clip = self.clip_of(np.arange(len(frames)))
             sides = [mirrored and side is not None for mirrored, side in zip(self.mirrored, self.sided)]
             handicap = MIRROR_HANDICAP * np.asarray(sides, dtype=np.float64)[clip]  # (N,) per frame
             self._windows[key] = StyleWindows(frames, self.clip_starts, patch_frames, frame_step, handicap)
@@ -93,6 +93,10 @@ class StyleLibrary:
         if key not in self._derived:
             self._derived[key] = compute()
         return self._derived[key]
+
+    def clip_of(self, library_frames: IntArray) -> IntArray:
+        """The clip index (F,) of each library frame (F,)."""
+        return np.searchsorted(self.clip_starts, library_frames, side="right") - 1
 
     def locate(self, library_frame: int) -> tuple[int, int]:
         """(clip index, frame within that clip) of a library frame."""

@@ -127,13 +127,16 @@ def part_keeps(
             in_place_share = keep_share(on_grid(*place), config.legs_place_above, ease, held=True)
             shares.append(in_place_share * in_place)
         share = np.max(shares, axis=0)
-        own_pace = np.max([shares[0], *shares[2:]], axis=0)  # not the turn's: turning steps take any pace
+        # another action, not another turn: the legs' mismatch counts their turning too, so it keeps the pace
+        # only where the gait alone (travel and steps) differs as well; turning steps take any pace
+        gait_share = keep_share(on_grid(*gait), config.keep_action_above, ease)
+        own_pace = np.max([np.minimum(shares[0], gait_share), *shares[2:]], axis=0)
         keep = {"legs": share, "spine": share}
         posture["spine"] = share
         # legs that do not travel take none of a stepping style's statistics: its legs' mean is a stride's
         # bent knees and lifted heels, not a manner (a raise given a run's statistics stood on tiptoe, knees
         # bent; a kick given a walk's rose half as high)
-        other_action["legs"] = keep_share(on_grid(*gait), config.keep_action_above, ease) * travelling
+        other_action["legs"] = gait_share * travelling
         # the content keeps to its place, its legs keep its action, and the windows travel
         library_travelling = library.derived(
             ("travelling", tuple(layout.travel.tolist()), fps),

@@ -228,7 +228,7 @@ def side_guard(
         windows = (
             total[patch_frames : patch_frames + num_windows] - total[:num_windows]
         ) / patch_frames  # (N, 3)
-        clip = np.searchsorted(library.clip_starts, np.arange(num_windows), side="right") - 1
+        clip = library.clip_of(np.arange(num_windows))
         return windows, np.asarray(library.mirrored, dtype=bool)[clip]
 
     key = ("sides", tuple(left.tolist()), tuple(right.tolist()), patch_frames)
