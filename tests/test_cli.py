@@ -354,3 +354,25 @@ def test_the_median_is_numpys() -> None:
     for rows in (values, values[:8], values[:1]):
         np.testing.assert_array_equal(median(rows, axis=0), np.median(rows, axis=0))
         np.testing.assert_array_equal(median(rows.T, axis=1), np.median(rows.T, axis=1))
+
+
+def test_a_style_clip_in_metres_is_said_to_be_read_so_also_from_the_cache(
+    walk: str, dataset_clips: list[ClipRef], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A content whose unit is guessed gets a note; a style clip's was read in silence (and a style in another
+    unit than the user thinks is as likely). Its note is kept with the cached library and said again."""
+    monkeypatch.setenv("ELASTYLE_CACHE", str(tmp_path / "cache"))
+    style = clip_named(dataset_clips, "dataset-2_walk_exhausted_005").read()[0].slice(0, 90).scaled(0.01)
+    write_bvh(tmp_path / "metres.bvh", style)
+    for attempt in ("encoded", "from the cache"):
+        result = run(
+            "transfer",
+            walk,
+            "--style",
+            str(tmp_path / "metres.bvh"),
+            "-o",
+            str(tmp_path / "out.bvh"),
+            "--force",
+        )
+        assert result.returncode == 0, result.stderr
+        assert "metres.bvh: length unit guessed as m" in result.stderr, (attempt, result.stderr)

@@ -20,6 +20,7 @@ from elastyle.cli.batch import (
     transfer_one,
 )
 from elastyle.cli.options import add_config_flags, add_units_flag, config_from_args
+from elastyle.core.body import guessed_unit_note
 from elastyle.core.motion import Motion, leading_pose_note
 from elastyle.errors import BvhError, OutputError, SkeletonMismatchError, UsageError
 from elastyle.io.dataset import ClipRef, read_up
@@ -257,7 +258,8 @@ def run_transfer(args: argparse.Namespace) -> int:
     def check(clip: ClipRef, motion: Motion) -> list[tuple[int, str]]:
         """How a style clip is read, as a content's is said: its notes (logging level, text)."""
         notes = []
-        for note in (model.check_clip(motion, clip.name), leading_pose_note(motion, clip.name)):
+        unit_note = guessed_unit_note(motion.skeleton, clip.name)  # a style in metres, as a content's is said
+        for note in (model.check_clip(motion, clip.name), leading_pose_note(motion, clip.name), unit_note):
             if note is not None:  # kept with a cached library, and said again when it is read from there
                 notes.append((logging.WARNING, note))
         if abs(motion.fps - model.fps) > 1e-6:
