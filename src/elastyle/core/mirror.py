@@ -165,9 +165,9 @@ class Asymmetry(NamedTuple):
 
 def asymmetry(motion: Motion, mirrored: Motion) -> Asymmetry:
     """The `Asymmetry` of a clip and its mirror (`mirror`), over the joints below the pelvis: each joint's
-    direction is its bone (towards its first child, else its end site, else from its parent) turned by its
-    world rotation, in the body's heading frame, averaged over the clip's frames (the first child with a
-    bone of some length; a joint with none is left out)."""
+    direction is its bone (towards its first child with a bone of some length, else its end site, else from
+    its parent; a joint with none of some length is left out) turned by its world rotation, in the body's
+    heading frame, averaged over the clip's frames."""
     skeleton = motion.skeleton
     bones = np.zeros((skeleton.num_joints, 3))  # (J, 3) unit bones; zero where a joint has none of length
     for joint in range(skeleton.num_joints):

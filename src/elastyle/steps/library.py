@@ -100,7 +100,7 @@ class StyleLibrary:
 
     def locate(self, library_frame: int) -> tuple[int, int]:
         """(clip index, frame within that clip) of a library frame."""
-        clip = int(np.searchsorted(self.clip_starts, library_frame, side="right") - 1)
+        clip = int(self.clip_of(np.array([library_frame]))[0])
         return clip, int(library_frame - self.clip_starts[clip])
 
     @property

@@ -96,9 +96,9 @@ class StyleWindows:
     windows it picks others than every frame would (`TransferConfig.match_step_s`: off by default).
 
     valid: (N,) False for windows that would cross from one library clip into the next.
-    handicap: (N,) what a window's similarity must exceed another's by to be taken before it (the
-    style's mirrored clips: `steps.library.MIRROR_HANDICAP`); `best` ranks by similarity minus handicap
-    and returns that score, `similarity` turns it back.
+    handicap: (N,) what a window's similarity must exceed another's by to be taken before it (the mirror
+    of a style clip held to one side: `steps.library.MIRROR_HANDICAP`); `best` ranks by similarity minus
+    handicap and returns that score, `similarity` turns it back.
     """
 
     CHUNK_BYTES = 4 << 20  # products and gathered rows per chunk of windows ...
