@@ -387,3 +387,25 @@ def test_a_skin_listed_parents_first_keeps_its_order(dataset_clips: list[ClipRef
     exported = tmp_path / "breadth_first.glb"
     document.save_binary(str(exported))
     assert read_clip(exported)[0].skeleton.names == tuple(walk.skeleton.names[joint] for joint in order)
+
+
+def test_a_buffer_view_stride_shorter_than_its_values_is_one_line(
+    three_channel_bvh: Path, tmp_path: Path
+) -> None:
+    """A byteStride under an accessor's value size cannot hold its rows: said as such, not as truncation."""
+    path = tmp_path / "clip.glb"
+    write_clip(path, read_bvh(three_channel_bvh)[0].slice(0, 10))
+    document = pygltflib.GLTF2().load(str(path))
+    animation = document.animations[0]
+    rotation = next(c for c in animation.channels if c.target.path == "rotation")
+    document.bufferViews[
+        document.accessors[animation.samplers[rotation.sampler].output].bufferView
+    ].byteStride = 8
+    document.save_binary(str(tmp_path / "bad.glb"))
+    result = subprocess.run(
+        [sys.executable, "-m", "elastyle.cli", "info", str(tmp_path / "bad.glb")],
+        capture_output=True,
+        text=True,
+    )
+    assert result.returncode != 0 and "Traceback" not in result.stderr
+    assert "byteStride (8) is shorter than its VEC4 values" in result.stderr, result.stderr

@@ -1,11 +1,11 @@
 """glTF 2.0 in: a skinned, animated `.glb` as a `Motion` (what `io.gltf_write` writes, and what engines and
 Blender export), so `.glb` clips can be viewed, converted and transferred like BVH.
 
-The first skin's joints are the skeleton (in their order, each moved after its parent where it is not),
-each joint's rest translation its offset, its root under the rotations of the nodes above it (an exporter's Armature); the
-first animation's rotation and translation tracks animate them, on the keyframe times of the track with the
-most keys (which must be evenly spaced: the frame rate), a track with fewer read between its own keys
-(linear, slerp, or held for STEP). Lengths stay in metres.
+The first skin's joints are the skeleton (in their order where each follows its parent, else depth first),
+each joint's rest translation its offset, its root under the rotations of the nodes above it (an
+exporter's Armature); the first animation's rotation and translation tracks animate them, on the keyframe
+times of the track with the most keys (which must be evenly spaced: the frame rate), a track with fewer
+read between its own keys (linear, slerp, or held for STEP). Lengths stay in metres.
 """
 
 from __future__ import annotations
@@ -141,8 +141,9 @@ def parse_glb(data: bytes, name: str) -> Motion:
 
 
 def _parents_first(document: Any, joints: list[int]) -> list[int]:
-    """A skin's joint nodes in the skin's order, moved where needed so that each comes after its parent (the
-    glTF format lets a skin list them in any order): depth first from the skin's top joints."""
+    """A skin's joint nodes, each after its parent: in the skin's order where it lists them so, else depth
+    first from its top joints, children in the skin's order (the glTF format lets a skin list them in any
+    order)."""
     listed = set(joints)
     children: dict[int, list[int]] = {node: [] for node in joints}
     has_parent: set[int] = set()
@@ -222,8 +223,12 @@ def _accessor(document: Any, accessor_index: int, name: str) -> FloatArray:
     start = (view.byteOffset or 0) + (accessor.byteOffset or 0)
     stride = view.byteStride or 4 * width  # an interleaved view holds other accessors' values between rows
     blob = document.binary_blob() or b""
+    if stride < 4 * width:
+        raise BvhError(
+            name, f"a buffer view's byteStride ({stride}) is shorter than its {accessor.type} values"
+        )
     size = stride * (accessor.count - 1) + 4 * width if accessor.count else 0
-    if stride < 4 * width or len(blob) < start + size:
+    if len(blob) < start + size:
         raise BvhError(name, "the binary chunk is shorter than its accessors say (truncated?)")
     rows = np.ndarray((accessor.count, width), dtype="<f4", buffer=blob, offset=start, strides=(stride, 4))
     return rows.astype(np.float64)
