@@ -551,13 +551,22 @@ def _facing(held: Motion, toe: int, ankle: int) -> tuple[FloatArray, FloatArray]
     return forward, np.cross([0.0, 1.0, 0.0], forward)
 
 
-def _swung(held: Motion, joint_name: str, degrees: float, at_s: tuple[float, ...], half_s: float) -> Motion:
-    """A held pose whose joint swings forward by `degrees` and back, centred at each of `at_s` (seconds),
-    over `half_s` either side (a cosine ease)."""
+def _swung(
+    held: Motion,
+    joint_name: str,
+    degrees: float,
+    at_s: tuple[float, ...],
+    half_s: float,
+    about: str = "lateral",
+) -> Motion:
+    """A held pose whose joint swings forward by `degrees` and back (about="up": turns to its left for a
+    negative angle), centred at each of `at_s` (seconds), over `half_s` either side (a cosine ease)."""
     from elastyle.core.rotations import multiply
 
     skeleton = held.skeleton
     _, lateral = _facing(held, skeleton.index("Toes_R"), skeleton.index("Foot_R"))
+    if about == "up":
+        lateral = np.array([0.0, 1.0, 0.0])
     time = np.arange(held.num_frames) / held.fps
     swing = sum(0.5 - 0.5 * np.cos(np.pi * np.clip(1 - np.abs(time - at) / half_s, 0.0, 1.0)) for at in at_s)
     joint = skeleton.index(joint_name)
@@ -627,6 +636,52 @@ def test_a_bow_given_a_waves_style_still_bows(
     # the option that turns it off: the wave's upright spine
     upright = transfer(bow, style, model=model, spine_lean_above=9.0).motion
     assert _trunk_tilt_degrees(upright).max() < 10.0
+
+
+def _head_turn_degrees(motion: Motion) -> FloatArray:
+    """(T,) how far the head is turned from its median carriage relative to the chest, degrees."""
+    from elastyle.core.rotations import from_matrix, multiply
+
+    world = motion.world()[0]
+    chest, head = motion.skeleton.index("Chest"), motion.skeleton.index("Head")
+    relative = from_matrix(np.swapaxes(world[:, chest], -1, -2) @ world[:, head])  # (T, 3)
+    usual = np.median(relative, axis=0)
+    return np.degrees(np.linalg.norm(multiply(-np.broadcast_to(usual, relative.shape), relative), axis=1))
+
+
+@pytest.mark.parametrize("about, degrees", [("lateral", -30.0), ("up", 60.0)])
+def test_a_nod_and_a_look_aside_given_a_waves_style_keep_the_heads_action(
+    model, dataset_clips: list[ClipRef], about: str, degrees: float
+) -> None:  # type: ignore[no-untyped-def]
+    """A standing nod (the neck pitched 30 degrees four times) and a look aside (turned 60 degrees twice),
+    given a standing wave's style: the head's gaze is among the spine's action descriptors, so where it
+    turns otherwise than in the matched windows the spine keeps the content's action, and the trunk takes
+    the style's carriage all the same. Before, the head took the wave's windows: at the nods' peaks it turned
+    1 degree beyond the moments between (the content 27), at the looks' none (the content 54); now 22 and
+    39."""
+    standing = clip_named(dataset_clips, "dataset-2_wave-right-hand_normal_010").read()[0]
+    turning = _swung(_held(standing, 6.0), "Neck", degrees, (1.5, 2.5, 3.5, 4.5), 0.4, about)
+    style = clip_named(dataset_clips, "dataset-2_wave-right-hand_feminine_005").read()[0]
+    content_turn = _head_turn_degrees(turning)
+    assert content_turn.max() > 0.8 * abs(degrees)
+    time = np.arange(turning.num_frames) / turning.fps
+    turned = content_turn > 0.8 * content_turn.max()  # (T,) the nods' or looks' peaks ...
+    between = (content_turn < 3.0) & (time > 1.0) & (time < 5.0)  # ... and the moments between them
+
+    def shown(motion: Motion) -> float:
+        """How far the head turns at the content's peaks beyond the moments between, degrees (a still
+        content keeps its timeline: the frames align)."""
+        assert motion.num_frames == turning.num_frames
+        turn = _head_turn_degrees(motion)
+        return float(turn[turned].mean() - turn[between].mean())
+
+    result = transfer(turning, style, model=model)
+    assert shown(result.motion) > 0.65 * shown(turning)
+    spine = [p["parts"]["spine"] for p in result.explain["styles"][0]["patches"]]
+    assert max(part["gaze_offset"] for part in spine) > 0.2 and max(p["content_share"] for p in spine) > 0.9
+    # the option that turns it off: the wave's head
+    still = transfer(turning, style, model=model, spine_lean_above=9.0).motion
+    assert shown(still) < 0.3 * shown(turning)
 
 
 def test_a_bow_shorter_than_a_patch_keeps_its_depth(model, dataset_clips: list[ClipRef]) -> None:  # type: ignore[no-untyped-def]
@@ -756,7 +811,7 @@ def test_the_action_layout_names_every_descriptor_of_a_real_walk(clips: dict[str
     channels = action_channels(walk)  # (T, A)
     named = np.concatenate(
         [layout.travel, [layout.turning], layout.hands.ravel(), layout.hand_speeds, layout.feet,
-         layout.pelvis_height, layout.lean]
+         layout.pelvis_height, layout.lean, layout.gaze]
     )  # fmt: skip
     assert channels.shape[1] == layout.width
     assert sorted(named.tolist()) == list(range(layout.width))  # each column named once

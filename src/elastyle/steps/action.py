@@ -14,6 +14,8 @@ heading frame turns with the pelvis's yaw (+Z forward).
     the trunk (3)    the head's place relative to the pelvis in the heading frame less the clip's carriage
                      (its place over the clip's most upright frames; legs): a lean or a bow away from it (a
                      stoop held throughout is a manner, not an action)
+    the gaze (3)     where the head faces in the heading frame, as a point `GAZE_LEGS` ahead of it, less the
+                     clip's carriage the same way (legs): a nod or a look aside, which turn the head in place
 
 Left and right keep their own channels, so a mirrored style window is close only where the content's
 sides agree with it.
@@ -39,16 +41,19 @@ from elastyle.types import BoolArray, FloatArray, IntArray
 TURNING_SMOOTH_S = 0.5
 TURNING_COLUMN = 2  # the turning rate's column in `action_channels` (after forward and sideways travel)
 SMOOTH_S = 0.1  # velocities are low-passed over about this long (sigma 0.4 of it), so noise does not count
+# the gaze is read as a point this far (leg lengths) ahead of the head: a 30-degree nod moves it 0.39 legs,
+# a walk's head bob of a few degrees under 0.1
+GAZE_LEGS = 0.75
 
 
 class ActionLayout(NamedTuple):
     """Which columns of a skeleton's `action_channels` (T, A) say what (the module's table).
 
     travel: (2,) forward and sideways; turning: the turning rate's; hands: (H, 3) each hand's place;
-    hand_speeds: (H,); feet: (F,) each foot's height; pelvis_height: (1,), or (0,) without feet; lean: (3,),
-    or (0,) without a trunk; width: A. parts: each body part's columns, what its action mismatch compares:
-    the legs' travel, turning and feet; the spine's lean; each arm's hand place then speed; arm_hands: each
-    arm part's hand place columns (3,).
+    hand_speeds: (H,); feet: (F,) each foot's height; pelvis_height: (1,), or (0,) without feet; lean, gaze:
+    (3,) each, or (0,) without a trunk; width: A. parts: each body part's columns, what its action mismatch
+    compares: the legs' travel, turning and feet; the spine's lean and gaze; each arm's hand place then
+    speed; arm_hands: each arm part's hand place columns (3,).
     """
 
     travel: IntArray
@@ -58,6 +63,7 @@ class ActionLayout(NamedTuple):
     feet: IntArray
     pelvis_height: IntArray
     lean: IntArray
+    gaze: IntArray
     width: int
     parts: dict[str, IntArray]
     arm_hands: dict[str, IntArray]
@@ -94,11 +100,12 @@ def action_layout(skeleton: Skeleton) -> ActionLayout:
     hands, hand_speeds = take(3 * num_hands).reshape(num_hands, 3), take(num_hands)
     feet, pelvis_height = take(num_feet), take(1 if num_feet else 0)
     parts_of = body_parts(skeleton)
-    lean = take(3 if trunk_top(skeleton) is not None else 0)
+    has_trunk = trunk_top(skeleton) is not None
+    lean, gaze = take(3 if has_trunk else 0), take(3 if has_trunk else 0)
     width = next(columns)
     parts = {"legs": np.concatenate([travel, [turning], feet])}
-    if len(lean) and "spine" in parts_of:
-        parts["spine"] = lean
+    if has_trunk and "spine" in parts_of:
+        parts["spine"] = np.concatenate([lean, gaze])
     arm_hands = {}
     for name, joints in parts_of.items():
         for h, hand in enumerate(limbs.hands.tolist()):
@@ -106,7 +113,7 @@ def action_layout(skeleton: Skeleton) -> ActionLayout:
                 parts[name] = np.append(hands[h], hand_speeds[h])
                 arm_hands[name] = hands[h]
     return ActionLayout(
-        travel, turning, hands, hand_speeds, feet, pelvis_height, lean, width, parts, arm_hands
+        travel, turning, hands, hand_speeds, feet, pelvis_height, lean, gaze, width, parts, arm_hands
     )
 
 
@@ -150,7 +157,11 @@ def action_channels(motion: Motion, world: tuple[FloatArray, FloatArray] | None 
         channels.append(height - carriage(height, height[:, 0]))
     if top is not None:
         lean = np.einsum("tij,tj->ti", to_heading, positions[:, top] - pelvis) / leg  # (T, 3) legs
-        channels.append(lean - carriage(lean, lean[:, 1]))
+        head = to_heading @ world_rotations[:, top]  # (T, 3, 3) the head's frame in the heading frame
+        # the head's own axis that points forward in its usual carriage (a rig's frames face any way)
+        facing = carriage(head[:, 2, :], lean[:, 1])  # (3,) in the head's frame
+        gaze = GAZE_LEGS * head @ (facing / max(float(lengths(facing)), 1e-9))  # (T, 3) legs
+        channels += [lean - carriage(lean, lean[:, 1]), gaze - carriage(gaze, lean[:, 1])]
     return smooth(np.concatenate(channels, axis=1), sigma)
 
 

@@ -163,9 +163,11 @@ class TransferConfig:
     spine_lean_above: float = option(
         0.15,
         "per body part: where the content does not travel and its head's lean away from its usual carriage (its "
-        "place relative to the pelvis, less that over the clip's most upright tenth) differs at some frame of a "
-        "patch from the matched style window's by more than this (leg lengths), the spine keeps the content's "
-        "action (a bow given a wave's style still bows), eased in over 0.15 above it; 9: never",
+        "place relative to the pelvis, less that over the clip's most upright tenth) or its gaze (where it faces, "
+        "as a point 0.75 leg lengths ahead, where the content's turns at least as far as the window's) differs "
+        "at some frame of a patch from the matched style window's by more than this (leg lengths), the spine "
+        "keeps the content's action (a bow or a nod given a wave's style still bows or nods), eased in over 0.15 "
+        "above it; 9: never",
         low=0.0, high=9.0,
     )  # fmt: skip
     keep_part: str = option(

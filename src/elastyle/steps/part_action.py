@@ -150,18 +150,28 @@ def part_keeps(
         )
         in_place_under_travel = share * in_place * np.clip(windows_travel, 0.0, 1.0)
         stepping_alike = (1 - share) * travelling * np.clip(windows_travel, 0.0, 1.0)
-    if "spine" in parts:
-        lean_columns = parts["spine"]
-        lean = [
-            _largest_gap(content_actions, library.actions, sequence, patch_frames, lean_columns)
-            for sequence in (patches, shifted)
-        ]
-        measures["spine"] = {"lean_offset": lean[0]}
-        # only where the content does not travel: there a lean is an action (a bow, a reach down); a travelling
-        # body's lean is its gait's manner (a youthful run leans 0.19 legs further forward than a normal one)
-        leans = keep_share(on_grid(*lean), config.spine_lean_above, ease, held=True) * in_place
-        keep["spine"] = np.maximum(keep.get("spine", 0.0), leans)
-        posture["spine"] = posture.get("spine", np.zeros_like(grid)) * (1 - leans)
+    if "spine" in parts and layout is not None:
+        # the head's turn counts where the content's departs from its carriage at least as far as the window's:
+        # a nod or a look aside the window lacks, not a look up at a raised hand the style adds (its manner)
+        lean, gaze = (
+            [
+                _largest_gap(content_actions, library.actions, sequence, patch_frames, columns, departs)
+                for sequence in (patches, shifted)
+            ]
+            for columns, departs in ((layout.lean, False), (layout.gaze, True))
+        )
+        measures["spine"] = {"lean_offset": lean[0], "gaze_offset": gaze[0]}
+        # only where the content does not travel: there a lean is an action (a bow, a reach down), and so is a
+        # turn of the head (a nod, a look aside); a travelling body's lean is its gait's manner (a youthful run
+        # leans 0.19 legs further forward than a normal one)
+        leans, looks = (
+            keep_share(on_grid(*gap), config.spine_lean_above, ease, held=True) * in_place
+            for gap in (lean, gaze)
+        )
+        keep["spine"] = np.max([keep.get("spine", np.zeros_like(grid)), leans, looks], axis=0)
+        # where the head alone turns otherwise, the windows' change to the trunk is still its carriage; where
+        # the trunk leans otherwise, that change is a bow undone, not a carriage
+        posture["spine"] = np.maximum(posture.get("spine", np.zeros_like(grid)), looks) * (1 - leans)
     for part, hand in ({} if layout is None else layout.arm_hands).items():
         content_hand, library_hand = content_actions[:, hand], library.actions[:, hand]
         one_clip = np.zeros(1, dtype=np.int64)
@@ -234,12 +244,19 @@ def _largest_gap(
     patches: list[Patch],
     patch_frames: int,
     columns: IntArray,
+    content_departs: bool = False,
 ) -> FloatArray:
     """(P,) per patch, the largest distance over its L frames between the content span's values of the
     action columns (K,) (stretched to L frames) and its window's: a kick lasts less than a patch, and the
-    patches' means halved it."""
+    patches' means halved it. content_departs: only frames where the content's values lie at least as far
+    from zero (its carriage) as the window's count: an action the window lacks, not a manner it adds."""
+    if not patches:
+        return np.zeros(0)
     spans, windows = patch_windows(content_actions, library_actions, patches, patch_frames, columns)
-    return np.linalg.norm(spans - windows, axis=2).max(axis=1) if len(patches) else np.zeros(0)
+    gaps = np.linalg.norm(spans - windows, axis=2)  # (P, L)
+    if content_departs:
+        gaps *= np.linalg.norm(spans, axis=2) >= np.linalg.norm(windows, axis=2)
+    return gaps.max(axis=1)
 
 
 def keep_share(mismatch: FloatArray, above: float, ease_steps: float, held: bool = False) -> FloatArray:
