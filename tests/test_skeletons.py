@@ -24,6 +24,7 @@ from elastyle.eval.metrics import cadence_steps_s
 from elastyle.io.dataset import ClipRef, is_held_out
 from elastyle.model.file import load_model
 from elastyle.steps.cleanup import clean_feet
+from elastyle.types import FloatArray
 from tests.conftest import THREE_CHANNEL_BVH, clip_named
 
 CMU = {
@@ -991,3 +992,41 @@ def test_a_one_armed_rig_has_its_arm_as_a_part(walk: Motion) -> None:
     # a short chain named for a side (a prop) is no arm
     no_arms = _without_joints(walk.skeleton, right_arm | {"UpperArm_L", "LowerArm_L", "Hand_L"})
     assert set(body_parts(no_arms)) == {"legs", "spine"}
+
+
+def _knee_degrees(motion: Motion) -> FloatArray:
+    """(T,) the left knee's angle between thigh and shin (180: straight)."""
+    positions, names = motion.positions(), motion.skeleton.names
+    hip, knee, ankle = (positions[:, names.index(n)] for n in ("UpperLeg_L", "LowerLeg_L", "Foot_L"))
+    thigh, shin = hip - knee, ankle - knee
+    cosine = np.sum(thigh * shin, axis=1) / np.linalg.norm(thigh, axis=1) / np.linalg.norm(shin, axis=1)
+    return np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+
+
+@pytest.mark.parametrize("legs", [0.87, 1.15])
+def test_a_body_whose_legs_are_longer_or_shorter_for_its_height_walks_as_tall_as_its_legs(
+    walk: Motion, dataset_clips: list[ClipRef], legs: float
+) -> None:
+    """The held-out walk on a body whose thighs and shins are 15 % longer (or 13 % shorter) than the model's
+    for the same trunk, its pelvis's path and height scaled with them, given an active walk's style: the clip
+    is brought to the model's size by its legs, so it steps with the same knees as the model's proportions
+    and its feet stay planted. Brought there by its height instead, its legs were 7 % too long for the
+    pelvis's height the style gave them: it walked crouched (knees 7 degrees more bent), its planted feet
+    sliding (70 cm/s against 1)."""
+    from elastyle import transfer
+    from elastyle.eval.metrics import floor_skating_cm_s
+
+    skeleton = walk.skeleton
+    offsets, translations = skeleton.offsets.copy(), walk.translations.copy()
+    for name in ("LowerLeg_L", "Foot_L", "LowerLeg_R", "Foot_R"):  # their offsets, and channels as well
+        offsets[skeleton.index(name)] *= legs
+        translations[:, skeleton.index(name)] *= legs
+    translations[:, skeleton.pelvis] *= legs
+    other = Motion(replace(skeleton, offsets=offsets), walk.rotations, translations, walk.fps)
+    style = clip_named(dataset_clips, "dataset-2_walk_active_010").read()[0]
+    usual, proportioned = (transfer(clip, style).motion for clip in (walk, other))
+    assert abs(np.mean(_knee_degrees(proportioned)) - np.mean(_knee_degrees(usual))) < 2.0
+    pelvis = skeleton.pelvis
+    height_ratio = proportioned.translations[:, pelvis, 1].mean() / usual.translations[:, pelvis, 1].mean()
+    assert abs(height_ratio / legs - 1) < 0.02
+    assert floor_skating_cm_s(proportioned) < floor_skating_cm_s(usual) + 3.0
