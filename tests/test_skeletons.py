@@ -692,6 +692,64 @@ def test_extra_joints_under_other_names_are_found_by_the_hierarchy(
     assert "13 joint(s) the model does not have" in result.explain["notes"][0]
 
 
+def _with_leaves(motion: Motion, leaves: list[tuple[str, str, FloatArray]]) -> Motion:
+    """The clip with still joints added (name, parent's name, offset), listed after every other joint, as a
+    game rig's twist bones, props and IK targets hang beside its chains."""
+    skeleton = motion.skeleton
+    names, parents = [*skeleton.names], [*skeleton.parents]
+    offsets, ends = [*skeleton.offsets], [*skeleton.end_sites]
+    for name, parent, offset in leaves:
+        names.append(name)
+        parents.append(names.index(parent))
+        offsets.append(np.asarray(offset, dtype=np.float64))
+        ends.append(np.full(3, np.nan))
+    extra = len(leaves)
+    still = np.zeros((motion.num_frames, extra, 3))
+    translations = np.concatenate(
+        [motion.translations, np.broadcast_to(offsets[-extra:], still.shape)], axis=1
+    )
+    extended = Skeleton(tuple(names), np.array(parents), np.array(offsets), np.array(ends))
+    return Motion(extended, np.concatenate([motion.rotations, still], axis=1), translations, motion.fps)
+
+
+def test_twist_bones_props_and_ik_targets_beside_the_chains_under_other_names(
+    walk: Motion, dataset_clips: list[ClipRef]
+) -> None:
+    """A game rig's export: the model's joints under the CMU names with twist bones beside each upper arm and
+    forearm (half way along the next bone, so a forearm twist competes with the hand), IK targets under the
+    root and a prop on the chest. Matched by the hierarchy (each joint's children that can hold the model's,
+    the bones most alike), they transfer exactly as the dataset's clips; they were refused as another
+    skeleton, every joint listed as differing."""
+    from elastyle.pipeline import transfer
+
+    def exported(motion: Motion) -> Motion:
+        skeleton = motion.skeleton
+        half = {name: 0.5 * skeleton.offsets[skeleton.index(child)] for name, child in (
+            ("UpperArm_L", "LowerArm_L"), ("UpperArm_R", "LowerArm_R"),
+            ("LowerArm_L", "Hand_L"), ("LowerArm_R", "Hand_R"),
+        )}  # fmt: skip
+        leaves = [(f"{CMU[name]}Twist", name, offset) for name, offset in half.items()]
+        leaves += [
+            ("ik_foot_root", "joint_Root", np.zeros(3)),
+            ("backpack", "Chest", np.array([0.0, 5.0, -12.0])),
+        ]
+        rigged = _with_leaves(motion, leaves)
+        rigged = _with_leaves(rigged, [("ik_foot_l", "ik_foot_root", np.array([10.0, 5.0, 0.0]))])
+        renamed = tuple(CMU.get(name, name) for name in rigged.skeleton.names)
+        return Motion(
+            replace(rigged.skeleton, names=renamed), rigged.rotations, rigged.translations, rigged.fps
+        )
+
+    model = load_model()
+    style = clip_named(dataset_clips, "dataset-2_walk_elderly_010").read()[0]
+    own = transfer(walk, style, model=model).motion
+    result = transfer(exported(walk), exported(style), model=model)
+    names = result.motion.skeleton.names
+    at = [names.index(CMU[name]) for name in own.skeleton.names]
+    np.testing.assert_allclose(result.motion.positions()[:, at], own.positions(), atol=1e-9)
+    assert "7 joint(s) the model does not have" in result.explain["notes"][0]
+
+
 def _below_an_armature(motion: Motion) -> Motion:
     """The clip in +Z-up axes below an `Armature` joint whose rotation stands it back along +Y (as some
     exporters write a scene object above the rig): the same world motion."""

@@ -34,7 +34,7 @@ def model_joints_in(model: Skeleton, clip: Skeleton) -> IntArray | None:
     Names match exactly, or else without namespaces. Each matched joint's parent in the clip must be the
     match of its model parent (no joint inserted between two of the model's), and the model's joints the
     clip lacks must be a chain above its root. Where no names match, joints under other names are matched
-    by the hierarchy (`_by_hierarchy`: extra joints only below the model's end joints), for the caller to
+    by the hierarchy (`_by_hierarchy`: extra joints hang below model joints, none between two), for the caller to
     check as the model's skeleton under other names (`core.body.same_structure`)."""
     by_name = _by_name(model, clip)
     if by_name is None and inserted_joints(model, clip):  # the model's names with other joints between them:
@@ -98,10 +98,13 @@ def inserted_joints(model: Skeleton, clip: Skeleton) -> list[tuple[list[str], st
 def _by_hierarchy(model: Skeleton, clip: Skeleton) -> IntArray | None:
     """`model_joints_in` under other names: the clip's root taken for the model's joint k (0, or a joint of
     the static chain above the model's pelvis that some exporters drop), each model joint with children
-    matched to a clip joint with as many children, in their order, and a model joint without children to
-    a clip joint with any (fingers below a hand, a tip below the head); None where the tree differs. A
-    joint's children are paired by the way their bones point at rest (`_paired`), so a clip that lists them
-    in another order (the legs before the spine) under other names is read too."""
+    matched to a clip joint with at least as many children, and a model joint without children to a clip
+    joint with any (fingers below a hand, a tip below the head); None where the tree differs. A joint's
+    children are paired by the way their bones point at rest (`_paired`), so a clip that lists them in another
+    order (the legs before the spine) under other names is read too. A clip joint with more children than the
+    model's has extra joints hanging below it (a twist bone beside the forearm, a prop on the chest, IK
+    targets under the root): of its children, those whose subtrees can hold the model's are paired (`_chosen`)
+    and the rest are extra."""
     for top in range(model.pelvis + 1):
         if top and model.parents[top] != top - 1:
             break  # the joints above the root are no chain
@@ -114,14 +117,66 @@ def _by_hierarchy(model: Skeleton, clip: Skeleton) -> IntArray | None:
                 if theirs and _cut_short(model, clip, joint, found[joint]):
                     break  # a joint inserted above the model's end joint, not extras below it
                 continue  # the clip's joints below a model end joint are extra
-            if len(theirs) != len(ours):
+            if len(theirs) < len(ours):
                 break
-            found.update(zip(ours, _paired(model, clip, ours, theirs)))
+            chosen = (
+                _paired(model, clip, ours, theirs)
+                if len(theirs) == len(ours)
+                else _chosen(model, clip, joint, found[joint])
+            )
+            if chosen is None:
+                break
+            found.update(zip(ours, chosen))
             pending.extend(ours)
         else:
             if len(found) == model.num_joints - top:
                 return np.array([found[joint] for joint in range(top, model.num_joints)], dtype=np.int64)
     return None
+
+
+def _holds(model: Skeleton, clip: Skeleton, joint: int, theirs: int) -> bool:
+    """Whether the clip joint `theirs` can be the model's `joint`: each model child below it held by a child
+    of its own (extra children aside), down to the model's end joints (`_cut_short` ones excepted)."""
+    if not model.children(joint):
+        return not (clip.children(theirs) and _cut_short(model, clip, joint, theirs))
+    return _chosen(model, clip, joint, theirs) is not None
+
+
+MAX_CHOSEN_CHILDREN = 8  # a joint with more children than this is read only with as many as the model's
+
+
+def _chosen(model: Skeleton, clip: Skeleton, joint: int, theirs: int) -> list[int] | None:
+    """The children of the clip joint `theirs` paired with those of the model's `joint` (the clip's at least
+    as many): among the pairings where each clip child can hold its model child's subtree (`_holds`), the one
+    whose bones are most alike at rest (direction, and length relative to the parents' bones: a body's height
+    counts joints the model lacks); None where none can."""
+    ours, below = model.children(joint), clip.children(theirs)
+    if len(below) < len(ours) or len(below) > MAX_CHOSEN_CHILDREN:
+        return None
+    holds = {(a, b): _holds(model, clip, a, b) for a in ours for b in below}
+    parent_bones = float(np.linalg.norm(model.offsets[joint])), float(np.linalg.norm(clip.offsets[theirs]))
+    scale = (  # clip lengths per model length: the parents' bones, or else the bodies' heights
+        parent_bones[1] / parent_bones[0]
+        if min(parent_bones) > 0
+        else (standing_height(clip) or 1.0) / (standing_height(model) or 1.0)
+    )
+
+    def alike(a: int, b: int) -> float:
+        ours_bone, theirs_bone = model.offsets[a] * scale, clip.offsets[b]
+        sizes = float(np.linalg.norm(ours_bone)), float(np.linalg.norm(theirs_bone))
+        if min(sizes) <= 0:
+            return 0.0 if sizes[0] == sizes[1] else -2.0
+        return float(ours_bone @ theirs_bone) / (sizes[0] * sizes[1]) - abs(
+            float(np.log(sizes[1] / sizes[0]))
+        )
+
+    best, best_score = None, -np.inf
+    for order in itertools.permutations(below, len(ours)):
+        if all(holds[a, b] for a, b in zip(ours, order)):
+            score = sum(alike(a, b) for a, b in zip(ours, order))
+            if score > best_score + 1e-9:
+                best, best_score = list(order), score
+    return best
 
 
 # a model end joint's bone read at a clip joint with joints below it is at least this share of the model's (each
