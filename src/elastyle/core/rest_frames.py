@@ -16,7 +16,7 @@ import numpy as np
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import from_matrix, to_matrix
 from elastyle.core.skeleton import Skeleton
-from elastyle.types import FloatArray
+from elastyle.types import FloatArray, IntArray
 
 
 def _axis_turns() -> tuple[FloatArray, ...]:
@@ -55,4 +55,72 @@ def frames_turned(motion: Motion, turn: FloatArray) -> Motion:
     matrices[:, 0] = matrices[:, 0] @ turn.T
     translations = motion.translations.copy()
     translations[:, 1:] = translations[:, 1:] @ turn.T
+    return Motion(turned, from_matrix(matrices), translations, motion.fps)
+
+
+def rest_rotations(clip: Skeleton, reference: Skeleton, joints: IntArray, first: int = 0) -> FloatArray:
+    """(J, 3, 3) per clip joint, the rotation D that takes the reference's rest bones below the matching
+    reference joint to the clip's (directions only: the best fit over its children, their offsets' or its
+    End Site's where it has none, least squares where several); the identity where a joint has no bone
+    below it or no reference joint (extra joints). The pelvis's and the joints' above it are not bones: their
+    position channels place them. joints: (J_ref - first,) each reference joint's clip
+    joint from `first` on (`core.extra_joints.model_joints_in`)."""
+    rest = np.broadcast_to(np.eye(3), (clip.num_joints, 3, 3)).copy()
+    for ours, theirs in zip(range(first, reference.num_joints), joints.tolist()):
+        kids = [k for k in reference.children(ours) if k > max(first, reference.pelvis)]
+        pairs = [(reference.offsets[k], clip.offsets[joints[k - first]]) for k in kids]
+        if not kids and not (np.isnan(reference.end_sites[ours, 0]) or np.isnan(clip.end_sites[theirs, 0])):
+            pairs = [(reference.end_sites[ours], clip.end_sites[theirs])]
+        pairs = [(a, b) for a, b in pairs if np.linalg.norm(a) > 1e-9 and np.linalg.norm(b) > 1e-9]
+        if pairs:
+            rest[theirs] = _best_rotation(*(np.array(side) for side in zip(*pairs)))
+    return rest
+
+
+def _best_rotation(sources: FloatArray, targets: FloatArray) -> FloatArray:
+    """The rotation (3, 3) that best takes the directions of sources (K, 3) to those of targets (K, 3): the
+    least turn for one, the least squares fit (Kabsch) for several."""
+    a = sources / np.linalg.norm(sources, axis=1, keepdims=True)
+    b = targets / np.linalg.norm(targets, axis=1, keepdims=True)
+    if len(a) == 1:
+        axis, cosine = np.cross(a[0], b[0]), float(np.clip(a[0] @ b[0], -1.0, 1.0))
+        size = float(np.linalg.norm(axis))
+        if size < 1e-12:  # the same way, or exactly opposite: a half turn about any perpendicular
+            if cosine > 0:
+                return np.eye(3)
+            other = np.eye(3)[int(np.argmin(np.abs(a[0])))]
+            axis = np.cross(a[0], other)
+            size = float(np.linalg.norm(axis))
+        return to_matrix(axis / size * np.arctan2(size, cosine) if size else axis)
+    u, _, vt = np.linalg.svd(b.T @ a)
+    fix = np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))])
+    return u @ fix @ vt
+
+
+def rest_degrees(rest: FloatArray) -> FloatArray:
+    """(J,) how far each rotation (J, 3, 3) turns, degrees."""
+    cosine = (np.trace(rest, axis1=1, axis2=2) - 1) / 2
+    return np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+
+
+def frames_reposed(motion: Motion, rest: FloatArray, inverse: bool = False) -> Motion:
+    """The same world motion (T frames, J joints) on another rest pose, each joint's frame turned by its
+    `rest` (J, 3, 3) rotation D (`rest_rotations`): local rotations R become D_parent^T R D (the root's R D),
+    local translations and bone offsets D_parent^T t, End Sites D^T e. inverse: back (R -> D_parent R D^T)."""
+    skeleton = motion.skeleton
+    parent_rest = np.where(
+        (skeleton.parents >= 0)[:, None, None], rest[np.maximum(skeleton.parents, 0)], np.eye(3)
+    )  # (J, 3, 3) each joint's parent's, the identity for the root
+    before, after = (
+        (parent_rest, rest) if inverse else (np.swapaxes(parent_rest, 1, 2), np.swapaxes(rest, 1, 2))
+    )
+    # forward: D_p^T R D, written as before @ R @ after^T with after = D^T; inverse: D_p R D^T
+    matrices = before @ to_matrix(motion.rotations) @ np.swapaxes(after, 1, 2)
+    offsets = np.einsum("jab,jb->ja", before, skeleton.offsets)
+    ends = np.einsum("jab,jb->ja", after, skeleton.end_sites)
+    translations = np.einsum("jab,tjb->tja", before, motion.translations)
+    root = skeleton.parents < 0
+    translations[:, root] = motion.translations[:, root]  # placed in the world
+    offsets[root] = skeleton.offsets[root]
+    turned = Skeleton(skeleton.names, skeleton.parents, offsets, ends, skeleton.unit_cm)
     return Motion(turned, from_matrix(matrices), translations, motion.fps)

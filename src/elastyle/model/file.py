@@ -28,7 +28,7 @@ from elastyle.core.extra_joints import (
 )
 from elastyle.core.ground import floor_gap, has_feet, raised
 from elastyle.core.motion import Motion
-from elastyle.core.rest_frames import AXIS_TURNS, frames_turned
+from elastyle.core.rest_frames import AXIS_TURNS, frames_reposed, frames_turned, rest_degrees, rest_rotations
 from elastyle.core.roots import with_added_roots, without_added_roots
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import smooth
@@ -108,6 +108,9 @@ class StyleModel:
         model's order (`core.extra_joints`: fingers, props, tips), and the joints above its root that the
         model has and it lacks added at rest (`core.roots`: a static root some exporters drop); any other
         clip as it is."""
+        rest = self.rest_pose(motion)
+        if rest is not None:
+            motion = frames_reposed(motion, rest)
         turn = self.rest_turn(motion)
         if turn is not None:
             motion = frames_turned(motion, turn)
@@ -118,8 +121,18 @@ class StyleModel:
 
     def on_clip_hierarchy(self, motion: Motion, clip_at: Motion) -> Motion:
         """An output on the model's hierarchy (`on_model_hierarchy` of the clip) back on the clip's own
-        skeleton: the added root joints dropped, its axes turned back, and the clip's other joints as
-        `clip_at`, the clip at the output's N moments, has them."""
+        skeleton: the added root joints dropped, its axes turned back, the clip's other joints as `clip_at`,
+        the clip at the output's N moments, has them, and its own rest pose."""
+        rest = self.rest_pose(clip_at)
+        if rest is None:
+            return self._on_clip_hierarchy(motion, clip_at)
+        own = frames_reposed(
+            self._on_clip_hierarchy(motion, frames_reposed(clip_at, rest)), rest, inverse=True
+        )
+        return Motion(clip_at.skeleton, own.rotations, own.translations, own.fps)
+
+    def _on_clip_hierarchy(self, motion: Motion, clip_at: Motion) -> Motion:
+        """`on_clip_hierarchy` for a clip in the model's rest pose."""
         turn = self.rest_turn(clip_at)
         turned = clip_at if turn is None else frames_turned(clip_at.slice(0, 1), turn)
         joints = model_joints_in(self.skeleton, turned.skeleton)
@@ -137,6 +150,36 @@ class StyleModel:
         if motion.skeleton not in known:
             known[motion.skeleton] = (self._find_rest_turn(motion.slice(0, 1)),)  # one frame is enough
         return known[motion.skeleton][0]
+
+    def rest_pose(self, motion: Motion) -> FloatArray | None:
+        """Per clip joint, the turn (J, 3, 3) of its frame under which the model reads a clip of its hierarchy
+        in another rest pose (`core.rest_frames.rest_rotations`: an A-pose's arms, bones set otherwise at rest),
+        the same world motion; None where the clip's bones point as the model's (within `REPOSE_DEGREES`) or
+        too far otherwise (`REPOSE_MOST_DEGREES`), where an axis turn reads it, or where re-posing does not make
+        it readable. Found once per clip skeleton."""
+        known = _REST_POSES.setdefault(self.skeleton, weakref.WeakKeyDictionary())
+        if motion.skeleton not in known:
+            known[motion.skeleton] = (self._find_rest_pose(motion.slice(0, 1)),)
+        return known[motion.skeleton][0]
+
+    def _find_rest_pose(self, motion: Motion) -> FloatArray | None:
+        if self.skeleton.same_as(motion.skeleton) and np.array_equal(
+            self.skeleton.offsets, motion.skeleton.offsets
+        ):
+            return None
+        if self.rest_turn(motion) is not None:
+            return None
+        mapped = _model_joints(self.skeleton, motion.skeleton)
+        if mapped is None:
+            return None
+        rest = rest_rotations(motion.skeleton, self.skeleton, *mapped)
+        if not REPOSE_DEGREES < rest_degrees(rest).max() <= REPOSE_MOST_DEGREES:
+            return None
+        try:
+            self._check(frames_reposed(motion, rest), "clip")
+            return rest
+        except SkeletonMismatchError:
+            return None
 
     def _find_rest_turn(self, motion: Motion) -> FloatArray | None:
         try:
@@ -178,6 +221,16 @@ class StyleModel:
         otherwise (`on_model_hierarchy`: other joint names or order, extra joints, a dropped static root,
         its axes turned); otherwise a `SkeletonMismatchError` naming the clip, what differs, and how to get
         a model for it."""
+        rest = self.rest_pose(motion)
+        if rest is not None:
+            degrees = rest_degrees(rest)
+            return _also(
+                f"note: {what}: its rest pose differs from the model's (its {motion.skeleton.names[int(np.argmax(degrees))]}'s "
+                f"bones turned {degrees.max():.0f} degrees): read re-posed onto the model's, the same world motion, and "
+                "written back in its own",
+                self._check(frames_reposed(motion.slice(0, 1), rest), what),
+                what,
+            )
         try:
             return self._check(motion, what)
         except SkeletonMismatchError:
@@ -271,6 +324,34 @@ class StyleModel:
         )
 
 
+# a clip whose bones at rest point within this of the model's (degrees; each joint's best turn) is read as it is
+REPOSE_DEGREES = 2.0
+# ... and one whose bones turn further than this is not re-posed: a bone's direction leaves its twist about it
+# open, so the least turn reads a chain set far otherwise with twists the model never saw (a rig whose rest is
+# its first frame, its chest 129 degrees off, was read with 24.5 cm mean joint error against 0.1); an A-pose's
+# arms turn about 45
+REPOSE_MOST_DEGREES = 90.0
+
+
+def _model_joints(model: Skeleton, clip: Skeleton) -> tuple[IntArray, int] | None:
+    """Each model joint's clip joint (J_model - first,) from the model's joint `first` on (the model's static
+    joints above the clip's root left out), where the clip is the model's hierarchy, with extra joints or
+    joints in another order or not; None for another hierarchy."""
+    joints = model_joints_in(model, clip)
+    if joints is not None:
+        return joints, model.num_joints - len(joints)
+    first = model.num_joints - clip.num_joints
+    if first < 0 or first > model.pelvis:
+        return None
+    below = np.where(model.parents[first:] >= first, model.parents[first:] - first, -1)
+    return (np.arange(clip.num_joints), first) if np.array_equal(clip.parents, below) else None
+
+
+# per model skeleton, per clip skeleton: the turns of its joints' frames `StyleModel.rest_pose` found
+_REST_POSES: weakref.WeakKeyDictionary[
+    Skeleton, weakref.WeakKeyDictionary[Skeleton, tuple[FloatArray | None]]
+]
+_REST_POSES = weakref.WeakKeyDictionary()
 # per model skeleton, per clip skeleton: the turn of its axes `StyleModel.rest_turn` found
 _REST_TURNS: weakref.WeakKeyDictionary[
     Skeleton, weakref.WeakKeyDictionary[Skeleton, tuple[FloatArray | None]]
