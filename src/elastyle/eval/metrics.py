@@ -7,6 +7,7 @@ import numpy as np
 from elastyle.core.body import centimetres_per_unit, find_limbs
 from elastyle.core.foot_tips import with_foot_tip_positions
 from elastyle.core.motion import Motion
+from elastyle.core.rhythm import dominant_frequency_hz
 from elastyle.core.smoothing import frame_steps
 from elastyle.types import BoolArray, FloatArray
 
@@ -65,25 +66,6 @@ def jerk(positions: FloatArray, fps: float) -> float:
     return float(np.linalg.norm(third, axis=-1).mean())
 
 
-MIN_CYCLES = 2.0  # a frequency is read only where the clip holds at least this many cycles of it
-
-
-def _dominant_frequency_hz(
-    signal: FloatArray, fps: float, low_hz: float = 0.3, high_hz: float = 3.0
-) -> float:
-    signal = signal - signal.mean()
-    if signal.shape[0] < 8 or not np.any(signal):
-        return float("nan")
-    windowed = signal * np.hanning(signal.shape[0])
-    size = max(8192, 1 << int(np.ceil(np.log2(signal.shape[0] * 8))))
-    spectrum = np.abs(np.fft.rfft(windowed, n=size))
-    frequencies = np.fft.rfftfreq(size, 1.0 / fps)
-    band = (frequencies >= low_hz) & (frequencies <= high_hz)
-    found = float(frequencies[band][np.argmax(spectrum[band])])
-    # a clip shorter than a few cycles of it holds no rhythm to read (a 1 s clip's "cadence" was its length)
-    return found if signal.shape[0] / fps * found >= MIN_CYCLES else float("nan")
-
-
 def _lateral_difference(motion: Motion, positions: FloatArray, left: int, right: int) -> FloatArray:
     """Signed distance (T,) of joint `left` ahead of joint `right` along the body's travel direction."""
     from elastyle.core.body import heading_yaw, pelvis_forward_local
@@ -113,7 +95,7 @@ def _alternation_hz(
     swing = float(np.subtract(*np.percentile(lead, [95, 5]))) * centimetres_per_unit(motion.skeleton)
     if swing < min_swing_cm:
         return float("nan")
-    return _dominant_frequency_hz(lead, motion.fps, 0.25, 2.0)
+    return dominant_frequency_hz(lead, motion.fps, 0.25, 2.0)
 
 
 def cadence_steps_s(motion: Motion, positions: FloatArray | None = None) -> float:

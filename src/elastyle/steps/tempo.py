@@ -1,9 +1,10 @@
 """The clip's tempo, and the search again about it (docs/method.md, "Transfer": timing).
 
 The sequential search tries stretches of (1 - stretch) to (1 + stretch) about the content's own pace. A
-style much faster or slower than the content lies beyond that range, so after a first search the clip's
-tempo is read from the patches whose legs step as their windows' do, and the search runs again with the
-range centred on it, up to `TEMPO_SEARCHES` times.
+style much faster or slower than the content lies beyond that range. Where both step, the first search is
+centred on the ratio of their cadences (`cadence_tempo`: each read from the feet's heights); after it the
+clip's tempo is read from the patches whose legs step as their windows' do, and the search runs again with
+the range centred on it, up to `TEMPO_SEARCHES` times.
 """
 
 from __future__ import annotations
@@ -12,8 +13,11 @@ from collections.abc import Callable
 
 import numpy as np
 
+from elastyle.core.rhythm import dominant_frequency_hz
 from elastyle.core.stats import median
+from elastyle.steps.action import ActionLayout, airborne, travelling_legs
 from elastyle.steps.config import TransferConfig
+from elastyle.steps.library import StyleLibrary
 from elastyle.steps.part_action import part_mismatch
 from elastyle.steps.search import Patch
 from elastyle.types import FloatArray, IntArray
@@ -39,14 +43,15 @@ def searched_about_tempo(
     patch_frames: int,
     fps: float,
     leg_columns: IntArray,
+    range_tempo: float = 1.0,
 ) -> list[Patch]:
     """The patches of a search again about the clip's tempo, or `patches` (the first search's, over
-    `config.source_lengths`) where there is no tempo to read or the range already surrounds it.
+    `config.source_lengths` about `range_tempo`) where there is no tempo to read or the range already
+    surrounds it.
 
     search: the tried source lengths (S,) -> the sequential search's patches; content_actions (T, A) and
     library_actions (N, A): the action descriptors whose leg columns (K,) say which patches step alike."""
-    lengths = config.source_lengths(patch_frames, fps)
-    range_tempo = 1.0  # the tempo the tried stretches surround
+    lengths = config.source_lengths(patch_frames, fps, range_tempo)
     for _ in range(TEMPO_SEARCHES if len(lengths) >= MIN_TEMPO_LENGTHS else 0):
         tempo = stepping_tempo(content_actions, library_actions, patches, patch_frames, leg_columns)
         if tempo is None or abs(tempo / range_tempo - 1) <= TEMPO_MOVE * config.stretch:
@@ -79,3 +84,70 @@ def stepping_tempo(
     if len(stretches) < MIN_TEMPO_PATCHES:
         return None
     return float(np.exp(median(np.log(stretches))))
+
+
+# the first search is centred on the cadences' ratio only where it lies over this share of --stretch from the
+# content's pace (as `TEMPO_MOVE`; only beyond the first range, 1, left the wider pairs' runs at E 0.18 where
+# this reaches 0.03)
+CADENCE_MOVE = 0.25
+# a clip steps where its pelvis travels over at least this share of its frames (`steps.action.travelling_legs`)
+STEPPING_SHARE = 0.5
+# two clips step in one gait where their shares of frames with both feet off the ground (`steps.action.airborne`)
+# lie within this: dataset runs fly over 0.19 to 0.51 of their frames, walks 0 to 0.16
+SAME_GAIT_FLIGHT = 0.15
+
+
+def cadence_tempo(
+    content_actions: FloatArray,
+    library: StyleLibrary,
+    layout: ActionLayout,
+    config: TransferConfig,
+    patch_frames: int,
+    fps: float,
+) -> float:
+    """The tempo the first search centres on: the library's cadence over the content's (each read from its
+    feet's heights, `feet_cadence`) where both step in one gait (their shares of frames with both feet off
+    the ground within `SAME_GAIT_FLIGHT`) and it lies beyond `CADENCE_MOVE` of the range from the content's
+    own pace; else 1, its own pace. A walk's cadence says nothing of a run's pace: centred on it, a run given a
+    walk's style was read slowly enough to match the walk, and walked. Patches of fewer tried lengths than
+    `MIN_TEMPO_LENGTHS` keep the report's range about the content's pace, as they read no tempo."""
+    if len(config.source_lengths(patch_frames, fps)) < MIN_TEMPO_LENGTHS:
+        return 1.0
+    one_clip = np.zeros(1, dtype=np.int64)
+    content = feet_cadence(content_actions, layout, one_clip, fps)
+    style = library.derived(
+        ("cadence", tuple(layout.feet.tolist()), fps),
+        lambda: feet_cadence(library.actions, layout, library.clip_starts, fps),
+    )
+    if content is None or style is None:
+        return 1.0
+    flight = np.mean(airborne(content_actions, layout)), np.mean(airborne(library.actions, layout))
+    if abs(flight[0] - flight[1]) > SAME_GAIT_FLIGHT:
+        return 1.0
+    tempo = style / content
+    return tempo if abs(tempo - 1) > CADENCE_MOVE * config.stretch else 1.0
+
+
+def feet_cadence(
+    actions: FloatArray, layout: ActionLayout, clip_starts: IntArray, fps: float
+) -> float | None:
+    """Steps per second of clips end to end from clip_starts (K,) (`action_channels` (T, A), their layout):
+    twice the dominant frequency of one foot's height less the other's, over the clips that step (their
+    median, each clip weighing its frames); None where none steps or the feet are not two."""
+    if len(layout.feet) != 2:
+        return None
+    travelling = travelling_legs(actions, layout, clip_starts, fps)
+    cadences, weights = [], []
+    for start, end in zip(clip_starts, np.append(clip_starts[1:], len(actions))):
+        if end - start < 2 or np.mean(travelling[start:end]) < STEPPING_SHARE:
+            continue
+        lead = actions[start:end, layout.feet[0]] - actions[start:end, layout.feet[1]]
+        cadence = 2.0 * dominant_frequency_hz(lead, fps, 0.25, 2.0)
+        if np.isfinite(cadence):
+            cadences.append(cadence)
+            weights.append(end - start)
+    if not cadences:
+        return None
+    order = np.argsort(cadences)
+    cumulative = np.cumsum(np.asarray(weights, dtype=np.float64)[order])
+    return float(np.asarray(cadences)[order][np.searchsorted(cumulative, cumulative[-1] / 2)])

@@ -27,7 +27,7 @@ from elastyle.steps.search import (
     search_fixed,
     search_sequential,
 )
-from elastyle.steps.tempo import searched_about_tempo
+from elastyle.steps.tempo import cadence_tempo, searched_about_tempo
 from elastyle.steps.whiten import LatentStats, adain
 from elastyle.types import BoolArray, FloatArray, IntArray
 
@@ -162,13 +162,20 @@ def style_track(
         return search_fixed(frames, windows, lengths, guard)
 
     content_frames = match_frames(white_content, content_actions, config.action_weight)
-    lengths = config.source_lengths(patch_frames, fps)
+    about_tempo = config.stretch_centre == "tempo" and config.placement == "sequential"
+    # where both step, the first search about the ratio of their cadences (a pace beyond the first range)
+    tempo = (
+        cadence_tempo(content_actions, library, layout, config, patch_frames, fps)
+        if about_tempo and layout
+        else 1.0
+    )
+    lengths = config.source_lengths(patch_frames, fps, tempo)
     guard = side_guard(content_actions, library, patch_frames, layout)
     patches = search(content_frames, windows, lengths, guard)
-    if config.stretch_centre == "tempo" and config.placement == "sequential":  # a pace beyond the first range
+    if about_tempo:  # a pace beyond the first range, read from the patches that step alike
         patches = searched_about_tempo(
             partial(search, content_frames, windows, guard=guard), patches, content_actions, library.actions,
-            config, patch_frames, fps, np.zeros(0, np.int64) if layout is None else layout.legs,
+            config, patch_frames, fps, np.zeros(0, np.int64) if layout is None else layout.legs, tempo,
         )  # fmt: skip
     shifted = half_shifted(content_frames, windows, patches, guard)
     # place and cross-fade: each grid time reads both sequences' style windows, weighted by a triangle
