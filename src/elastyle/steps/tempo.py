@@ -13,6 +13,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from elastyle.core.ground import PERCENTILE_METHOD
 from elastyle.core.rhythm import dominant_frequency_hz
 from elastyle.core.stats import median
 from elastyle.steps.action import ActionLayout, airborne, sustained_turning, travelling_legs
@@ -125,9 +126,13 @@ def cadence_tempo(
     if content is None or style is None:
         return 1.0
     flight = np.mean(airborne(content_actions, layout)), np.mean(airborne(library.actions, layout))
-    turning = (  # each one's turning where it turns most (a tenth of its frames)
-        np.percentile(np.abs(sustained_turning(content_actions, one_clip, fps)), 90),
-        np.percentile(np.abs(sustained_turning(library.actions, library.clip_starts, fps)), 90),
+    turning = (  # each one's turning where it turns most (a tenth of its frames; nearest, not numpy.ma's)
+        np.percentile(
+            np.abs(sustained_turning(content_actions, one_clip, fps)), 90, method=PERCENTILE_METHOD
+        ),
+        np.percentile(
+            np.abs(sustained_turning(library.actions, library.clip_starts, fps)), 90, method=PERCENTILE_METHOD
+        ),
     )
     if (
         abs(flight[0] - flight[1]) > SAME_GAIT_FLIGHT
