@@ -121,7 +121,8 @@ def size_factor(clip: Skeleton, reference: Skeleton) -> float:
     reconstructed with 4.4 and 2.2 cm median joint error instead of 0.49 (the previous model), and a clip in
     metres is unreadable. They are the legs' lengths: a body whose legs are 15 % longer than the model's for
     its height, brought to the model's height, stood on legs 7 % too long for the pelvis's height the style
-    gave them, and walked crouched, its feet scraping the floor (70 cm/s against 0.8).
+    gave them, and walked crouched, its feet scraping the floor (70 cm/s of skate by `elastyle eval`
+    against 0.8).
     """
     unit = centimetres_per_unit(clip) / centimetres_per_unit(reference)
     size, reference_size = leg_chain_length(clip), leg_chain_length(reference)

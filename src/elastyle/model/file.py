@@ -11,6 +11,7 @@ import json
 import os
 import weakref
 import zipfile
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from functools import cached_property
 from io import BytesIO
@@ -146,10 +147,7 @@ class StyleModel:
         """The turn (3, 3) of every joint's axes under which the model reads a clip it does not read as it
         is (`core.rest_frames`: an exporter's own axes); None where it reads it as it is, or under no turn.
         Found once per clip skeleton (it decides alone)."""
-        known = _REST_TURNS.setdefault(self.skeleton, weakref.WeakKeyDictionary())
-        if motion.skeleton not in known:
-            known[motion.skeleton] = (self._find_rest_turn(motion.slice(0, 1)),)  # one frame is enough
-        return known[motion.skeleton][0]
+        return _once_per_skeleton(_REST_TURNS, self.skeleton, motion, self._find_rest_turn)
 
     def rest_pose(self, motion: Motion) -> FloatArray | None:
         """Per clip joint, the turn (J, 3, 3) of its frame under which the model reads a clip of its hierarchy
@@ -157,10 +155,7 @@ class StyleModel:
         the same world motion; None where the clip's bones point as the model's (within `REPOSE_DEGREES`) or
         too far otherwise (`REPOSE_MOST_DEGREES`), where an axis turn reads it, or where re-posing does not make
         it readable. Found once per clip skeleton."""
-        known = _REST_POSES.setdefault(self.skeleton, weakref.WeakKeyDictionary())
-        if motion.skeleton not in known:
-            known[motion.skeleton] = (self._find_rest_pose(motion.slice(0, 1)),)
-        return known[motion.skeleton][0]
+        return _once_per_skeleton(_REST_POSES, self.skeleton, motion, self._find_rest_pose)
 
     def _find_rest_pose(self, motion: Motion) -> FloatArray | None:
         if self.skeleton.same_as(motion.skeleton) and np.array_equal(
@@ -347,16 +342,23 @@ def _model_joints(model: Skeleton, clip: Skeleton) -> tuple[IntArray, int] | Non
     return (np.arange(clip.num_joints), first) if np.array_equal(clip.parents, below) else None
 
 
-# per model skeleton, per clip skeleton: the turns of its joints' frames `StyleModel.rest_pose` found
-_REST_POSES: weakref.WeakKeyDictionary[
+# per model skeleton, per clip skeleton: a turn found for it once (`StyleModel.rest_turn`, `.rest_pose`)
+_PerSkeleton = weakref.WeakKeyDictionary[
     Skeleton, weakref.WeakKeyDictionary[Skeleton, tuple[FloatArray | None]]
 ]
-_REST_POSES = weakref.WeakKeyDictionary()
-# per model skeleton, per clip skeleton: the turn of its axes `StyleModel.rest_turn` found
-_REST_TURNS: weakref.WeakKeyDictionary[
-    Skeleton, weakref.WeakKeyDictionary[Skeleton, tuple[FloatArray | None]]
-]
-_REST_TURNS = weakref.WeakKeyDictionary()
+_REST_POSES: _PerSkeleton = weakref.WeakKeyDictionary()  # the turns of its joints' frames
+_REST_TURNS: _PerSkeleton = weakref.WeakKeyDictionary()  # the turn of its axes
+
+
+def _once_per_skeleton(
+    cache: _PerSkeleton, model: Skeleton, motion: Motion, find: Callable[[Motion], FloatArray | None]
+) -> FloatArray | None:
+    """`find` of the clip's first frame (one is enough: it decides by the skeleton alone), once per model
+    skeleton and clip skeleton."""
+    known = cache.setdefault(model, weakref.WeakKeyDictionary())
+    if motion.skeleton not in known:
+        known[motion.skeleton] = (find(motion.slice(0, 1)),)
+    return known[motion.skeleton][0]
 
 
 def _rest_pose_error(what: str, skeleton: str) -> SkeletonMismatchError:

@@ -125,22 +125,31 @@ def cadence_tempo(
     )
     if content is None or style is None:
         return 1.0
-    flight = np.mean(airborne(content_actions, layout)), np.mean(airborne(library.actions, layout))
-    turning = (  # each one's turning where it turns most (a tenth of its frames; nearest, not numpy.ma's)
-        np.percentile(
-            np.abs(sustained_turning(content_actions, one_clip, fps)), 90, method=PERCENTILE_METHOD
-        ),
-        np.percentile(
-            np.abs(sustained_turning(library.actions, library.clip_starts, fps)), 90, method=PERCENTILE_METHOD
-        ),
+    content_gait = _gait_and_path(content_actions, layout, one_clip, fps)
+    style_gait = library.derived(
+        ("gait and path", tuple(layout.feet.tolist()), fps),
+        lambda: _gait_and_path(library.actions, layout, library.clip_starts, fps),
     )
+    (content_flight, content_turning), (style_flight, style_turning) = content_gait, style_gait
     if (
-        abs(flight[0] - flight[1]) > SAME_GAIT_FLIGHT
-        or abs(turning[0] - turning[1]) > config.legs_turning_above
+        abs(content_flight - style_flight) > SAME_GAIT_FLIGHT
+        or abs(content_turning - style_turning) > config.legs_turning_above
     ):
         return 1.0
     tempo = style / content
     return tempo if abs(tempo - 1) > CADENCE_MOVE * config.stretch else 1.0
+
+
+def _gait_and_path(
+    actions: FloatArray, layout: ActionLayout, clip_starts: IntArray, fps: float
+) -> tuple[float, float]:
+    """Of clips end to end from clip_starts (K,) (`action_channels` (T, A), their layout): the share of frames
+    with both feet off the ground, and the sustained turning (rad/s) where they turn most (a tenth of their
+    frames; the nearest percentile, as numpy's interpolating one imports numpy.ma)."""
+    turning = np.abs(sustained_turning(actions, clip_starts, fps))
+    return float(np.mean(airborne(actions, layout))), float(
+        np.percentile(turning, 90, method=PERCENTILE_METHOD)
+    )
 
 
 def feet_cadence(
