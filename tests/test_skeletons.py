@@ -74,8 +74,14 @@ def test_a_standing_gesture_has_no_cadence_though_its_body_turns(dataset_clips: 
     assert np.isnan(cadence_steps_s(wave))
 
 
-def _with_joint_between(motion: Motion, parent: str, child: str, name: str) -> Motion:
-    """The clip with a joint `name` inserted halfway between `parent` and its child `child`, unrotated."""
+def _with_joint_between(
+    motion: Motion, parent: str, child: str, name: str, turn: FloatArray | None = None
+) -> Motion:
+    """The clip with a joint `name` inserted halfway between `parent` and its child `child`; turn: its
+    rotations (T, 3), exp maps, the child's undone below it so that every other joint moves as before (None:
+    unrotated)."""
+    from elastyle.core.rotations import from_matrix, to_matrix
+
     skeleton = motion.skeleton
     at, below = skeleton.names.index(parent) + 1, skeleton.names.index(child)
     order = [*range(at), -1, *range(at, skeleton.num_joints)]  # -1: the new joint
@@ -91,44 +97,90 @@ def _with_joint_between(motion: Motion, parent: str, child: str, name: str) -> M
     rotations = np.insert(motion.rotations, at, 0.0, axis=1)
     translations = np.insert(motion.translations, at, half, axis=1)
     translations[:, at + 1 + (below - at)] = half
+    if turn is not None:  # the new joint turns, its child turns back: the same world motion
+        undo = np.swapaxes(to_matrix(turn), -1, -2)  # (T, 3, 3)
+        moved = at + 1 + (below - at)
+        rotations[:, at] = turn
+        rotations[:, moved] = from_matrix(undo @ to_matrix(rotations[:, moved]))
+        translations[:, moved] = np.einsum("tij,tj->ti", undo, translations[:, moved])
     return Motion(Skeleton(names, np.array(parents), offsets, ends), rotations, translations, motion.fps)
 
 
-def test_a_joint_between_two_of_the_models_is_a_clear_error(walk: Motion) -> None:
-    # the names are the model's, but a twist joint mid-arm: read "by the hierarchy", the twist was taken for the
-    # elbow and the elbow for the wrist, and the output bent the upper arm at the twist by 29 degrees
-    from elastyle import SkeletonMismatchError, transfer
-
-    twisted = _with_joint_between(walk.slice(0, 60), "UpperArm_L", "LowerArm_L", "UpperArmTwist_L")
-    twisted = _with_joint_between(twisted, "UpperArm_R", "LowerArm_R", "UpperArmTwist_R")  # both: it was read
-    np.testing.assert_allclose(
-        twisted.positions()[:, [twisted.skeleton.names.index(n) for n in walk.skeleton.names]],
-        walk.slice(0, 60).positions(), atol=1e-4,
-    )  # fmt: skip
-    for clip in (twisted, _without_root(twisted)):  # also as the usual export, Hips its ROOT
-        with pytest.raises(
-            SkeletonMismatchError, match=r"UpperArmTwist_L between the model's UpperArm_L and LowerArm_L"
-        ):
-            transfer(clip, walk)
+def _on_joints(motion: Motion, names: tuple[str, ...]) -> FloatArray:
+    """World positions (T, J', 3) of the joints `names`."""
+    return motion.positions()[:, [motion.skeleton.names.index(name) for name in names]]
 
 
-def test_a_joint_between_the_neck_and_head_under_other_names_is_a_clear_error(walk: Motion) -> None:
-    """Under CMU names a Neck1 between Neck and Head was read as the model's head and the real head carried
-    as an extra joint: no error, the output's head 10 degrees off on average (19 at most)."""
-    from elastyle import SkeletonMismatchError, transfer
+def test_joints_between_two_of_the_models_are_read_as_one_bone(walk: Motion) -> None:
+    """A twist joint mid-arm under the model's names, turning (its forearm turning back): was refused (read
+    "by the hierarchy", the twist had been taken for the elbow and the output bent the upper arm at it by 29
+    degrees). Now the model reads the upper arm and the twist as one bone: every model joint of the output as
+    the plain walk's transfer, each twist turning as the clip's, and strength 0 the clip itself (to 1e-4 cm)."""
+    from elastyle import transfer
 
-    inserted = _with_joint_between(walk.slice(0, 60), "Neck", "Head", "Neck1")
-    names = tuple(CMU.get(name, name) for name in inserted.skeleton.names)
-    cmu = Motion(replace(inserted.skeleton, names=names), inserted.rotations, inserted.translations, walk.fps)
-    with pytest.raises(SkeletonMismatchError, match="skeleton differs from the model"):
-        transfer(cmu, walk)
-    # a head tip below the head is an extra joint as before
-    tipped = _with_fingers(walk.slice(0, 60))
-    renamed = Motion(
-        replace(tipped.skeleton, names=tuple(CMU.get(n, n) for n in tipped.skeleton.names)), tipped.rotations,
-        tipped.translations, walk.fps,
-    )  # fmt: skip
-    assert transfer(renamed, walk).motion.skeleton.names == renamed.skeleton.names
+    clip = walk.slice(0, 60)
+    turn = np.zeros((clip.num_frames, 3))
+    turn[:, 0] = 0.4 * np.sin(np.linspace(0.0, 3.0, clip.num_frames))  # about the bone, up to 23 degrees
+    twisted = _with_joint_between(clip, "UpperArm_L", "LowerArm_L", "UpperArmTwist_L", turn)
+    twisted = _with_joint_between(twisted, "UpperArm_R", "LowerArm_R", "UpperArmTwist_R", -turn)
+    np.testing.assert_allclose(_on_joints(twisted, walk.skeleton.names), clip.positions(), atol=1e-4)
+    plain = transfer(clip, walk).motion
+    for content in (twisted, _without_root(twisted)):  # also as the usual export, Hips its ROOT
+        result = transfer(content, walk)
+        assert any(
+            "2 joint(s) between two of the model's (UpperArmTwist_L" in n for n in result.explain["notes"]
+        )
+        output = result.motion
+        assert output.skeleton.names == content.skeleton.names
+        names = tuple(name for name in walk.skeleton.names if name in content.skeleton.names)
+        np.testing.assert_allclose(_on_joints(output, names), _on_joints(plain, names), atol=1e-3)
+        for name in ("UpperArmTwist_L", "UpperArmTwist_R"):
+            twist = content.skeleton.index(name)
+            np.testing.assert_allclose(output.rotations[:, twist], content.rotations[:, twist], atol=1e-9)
+        unstyled = transfer(content, walk, strength=0).motion
+        np.testing.assert_allclose(unstyled.positions(), content.positions(), atol=1e-4)
+
+
+MIXAMO = {
+    "Hips": "Hips", "Spine": "Spine", "Chest": "Spine2", "Neck": "Neck", "Head": "Head",
+    "Shoulder_L": "LeftShoulder", "UpperArm_L": "LeftArm", "LowerArm_L": "LeftForeArm", "Hand_L": "LeftHand",
+    "Shoulder_R": "RightShoulder", "UpperArm_R": "RightArm", "LowerArm_R": "RightForeArm", "Hand_R": "RightHand",
+    "UpperLeg_L": "LeftUpLeg", "LowerLeg_L": "LeftLeg", "Foot_L": "LeftFoot", "Toes_L": "LeftToeBase",
+    "UpperLeg_R": "RightUpLeg", "LowerLeg_R": "RightLeg", "Foot_R": "RightFoot", "Toes_R": "RightToeBase",
+    "Spine1": "Spine1",
+}  # fmt: skip
+
+
+def test_rigs_with_more_spine_and_neck_joints_under_other_names(walk: Motion, tmp_path: Path) -> None:
+    """Mixamo's and CMU's rigs have joints the model's chains lack (Mixamo: Spine, Spine1, Spine2 for the
+    model's Spine, Chest; CMU: Neck, Neck1, Head), under names of their own: both were refused ("skeleton
+    differs from the model"), or CMU's Neck1 read as the head and the real head carried as an extra joint,
+    10 degrees off. Now the extra chain joints are read into the model's bones, found by the hierarchy and
+    the bones' lengths: every model joint as the plain walk's transfer, also from a file."""
+    from elastyle import transfer
+
+    clip = walk.slice(0, 60)
+    turn = np.zeros((clip.num_frames, 3))
+    turn[:, 2] = 0.1 * np.sin(np.linspace(0.0, 6.0, clip.num_frames))
+    plain = transfer(clip, walk).motion
+    mixamo = _without_root(_with_joint_between(clip, "Spine", "Chest", "Spine1", turn))
+    mixamo = mixamo.renamed([f"mixamorig:{MIXAMO[name]}" for name in mixamo.skeleton.names])
+    cmu = _with_joint_between(clip, "Neck", "Head", "Neck1", turn)
+    cmu = cmu.renamed([CMU.get(name, name) for name in cmu.skeleton.names])
+    for content, inserted in ((mixamo, "mixamorig:Spine1"), (cmu, "Neck1")):
+        path = tmp_path / f"{inserted.replace(':', '_')}.bvh"
+        write_bvh(path, content)
+        content = read_bvh(path)[0]
+        result = transfer(content, walk)
+        assert any(
+            f"1 joint(s) between two of the model's ({inserted})" in n for n in result.explain["notes"]
+        )
+        output = result.motion
+        matched = tuple(name for name in content.skeleton.names if name != inserted)  # the model's order
+        ours = walk.skeleton.names[len(walk.skeleton.names) - len(matched) :]  # Mixamo's lacks joint_Root
+        np.testing.assert_allclose(_on_joints(output, matched), _on_joints(plain, ours), atol=1e-3)
+        at = content.skeleton.index(inserted)
+        np.testing.assert_allclose(output.rotations[:, at], content.rotations[:, at], atol=1e-5)
 
 
 @pytest.mark.parametrize("scheme", list(SCHEMES))

@@ -13,6 +13,7 @@ import itertools
 
 import numpy as np
 
+from elastyle.core.extra_joints import folded_joints
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import from_matrix, to_matrix
 from elastyle.core.skeleton import Skeleton
@@ -62,18 +63,23 @@ def rest_rotations(clip: Skeleton, reference: Skeleton, joints: IntArray, first:
     """(J, 3, 3) per clip joint, the rotation D that takes the reference's rest bones below the matching
     reference joint to the clip's (directions only: the best fit over its children, their offsets' or its
     End Site's where it has none, least squares where several); the identity where a joint has no bone
-    below it or no reference joint (extra joints). The pelvis's and the joints' above it are not bones: their
+    below it or no reference joint (extra joints), the one above's for a joint between two matched ones (a
+    chain read as one bone turns as one). The pelvis's and the joints' above it are not bones: their
     position channels place them. joints: (J_ref - first,) each reference joint's clip
     joint from `first` on (`core.extra_joints.model_joints_in`)."""
     rest = np.broadcast_to(np.eye(3), (clip.num_joints, 3, 3)).copy()
     for ours, theirs in zip(range(first, reference.num_joints), joints.tolist()):
         kids = [k for k in reference.children(ours) if k > max(first, reference.pelvis)]
-        pairs = [(reference.offsets[k], clip.offsets[joints[k - first]]) for k in kids]
+        pairs = [(reference.offsets[k], clip.offset_from(theirs, joints[k - first])) for k in kids]
         if not kids and not (np.isnan(reference.end_sites[ours, 0]) or np.isnan(clip.end_sites[theirs, 0])):
             pairs = [(reference.end_sites[ours], clip.end_sites[theirs])]
         pairs = [(a, b) for a, b in pairs if np.linalg.norm(a) > 1e-9 and np.linalg.norm(b) > 1e-9]
         if pairs:
             rest[theirs] = _best_rotation(*(np.array(side) for side in zip(*pairs)))
+    for joint in folded_joints(
+        clip, joints
+    ):  # top down: a chain read as one bone turns as the joint above it
+        rest[joint] = rest[clip.parents[joint]]
     return rest
 
 

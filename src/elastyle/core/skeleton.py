@@ -91,6 +91,15 @@ class Skeleton:
     def children(self, joint: int) -> list[int]:
         return [int(j) for j in np.flatnonzero(self.parents == joint)]
 
+    def offset_from(self, ancestor: int, joint: int) -> FloatArray:
+        """(3,) the joint's rest place from its ancestor's (file units): the offsets between them added (the
+        joint's own offset where `ancestor` is its parent)."""
+        offset = np.zeros(3)
+        while joint != ancestor:
+            offset = offset + self.offsets[joint]
+            joint = int(self.parents[joint])
+        return offset
+
     def with_ancestors(self, joints: Sequence[int] | IntArray | None) -> IntArray:
         """The joints and every joint above them, sorted (parents first); None: all joints."""
         if joints is None:

@@ -22,7 +22,7 @@ import numpy as np
 
 from elastyle.core.body import at_size_of, same_rest_pose, same_structure
 from elastyle.core.extra_joints import (
-    inserted_joints,
+    folded_joints,
     model_joints_in,
     with_extra_joints,
     without_extra_joints,
@@ -242,17 +242,29 @@ class StyleModel:
     def _check(self, motion: Motion, what: str) -> str | None:
         """`check_clip` for a clip in the model's axes."""
         joints = model_joints_in(self.skeleton, motion.skeleton)
-        if joints is not None:  # the model's joints and more below them: read on the model's alone
-            extra = [name for joint, name in enumerate(motion.skeleton.names) if joint not in joints]
-            listed = ", ".join(extra[:4]) + (", ..." if len(extra) > 4 else "")
-            note = (
-                f"note: {what}: {len(extra)} joint(s) the model does not have ({listed}): the transfer reads "
-                "the model's joints and the output carries these as the clip performs them"
-                if extra
-                else f"note: {what}: its joints are listed in another order than the model's: read in the "
-                "model's order and written in its own"
+        if joints is not None:  # the model's joints and more: read on the model's alone
+            names = motion.skeleton.names
+            folded = folded_joints(motion.skeleton, joints)
+            extra = [name for joint, name in enumerate(names) if joint not in joints and joint not in folded]
+            said = [
+                f"{len(extra)} joint(s) the model does not have ({_listed(extra)}): the transfer reads the "
+                "model's joints and the output carries these as the clip performs them"
+            ] if extra else []  # fmt: skip
+            if folded:
+                said.append(
+                    f"{len(folded)} joint(s) between two of the model's ({_listed([names[j] for j in folded])}): "
+                    "the model reads each such chain as one bone, and the output turns them as the clip does"
+                )
+            if not said:
+                said.append(
+                    "its joints are listed in another order than the model's: read in the model's order and "
+                    "written in its own"
+                )
+            return _also(
+                f"note: {what}: " + "; ".join(said),
+                self._check(without_extra_joints(motion, joints), what),
+                what,
             )
-            return _also(note, self._check(without_extra_joints(motion, joints), what), what)
         if self.skeleton.same_as(motion.skeleton):
             if same_rest_pose(self.skeleton, motion.skeleton):
                 return None
@@ -266,15 +278,6 @@ class StyleModel:
             return (
                 f"note: {what}: joint names differ from the model's ({renamed[0]} for {renamed[1]}, ...), but "
                 "its hierarchy, limbs and rest pose are the model's: read joint by joint in that order"
-            )
-        inserted = inserted_joints(self.skeleton, motion.skeleton)
-        if inserted:
-            between, parent, child = inserted[0]
-            more = f" (and {len(inserted) - 1} more place(s))" if len(inserted) > 1 else ""
-            raise SkeletonMismatchError(
-                f"{what}: joint(s) {', '.join(between)} between the model's {parent} and {child}{more}: the model "
-                "reads those two as one bone, so it cannot read this skeleton; train a model on its clips with "
-                "'elastyle train CLIPS -o model.npz --recipe shipped --minutes 20' and pass it with --model"
             )
         rooted = with_added_roots(self.skeleton, motion)
         if rooted is not None:
@@ -326,6 +329,11 @@ REPOSE_DEGREES = 2.0
 # its first frame, its chest 129 degrees off, was read with 24.5 cm mean joint error against 0.1); an A-pose's
 # arms turn about 45
 REPOSE_MOST_DEGREES = 90.0
+
+
+def _listed(names: list[str], most: int = 4) -> str:
+    """Up to `most` names, comma-separated, then an ellipsis where there are more."""
+    return ", ".join(names[:most]) + (", ..." if len(names) > most else "")
 
 
 def _model_joints(model: Skeleton, clip: Skeleton) -> tuple[IntArray, int] | None:
