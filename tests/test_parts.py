@@ -684,6 +684,22 @@ def test_a_nod_and_a_look_aside_given_a_waves_style_keep_the_heads_action(
     assert shown(still) < 0.3 * shown(turning)
 
 
+def test_a_walk_looking_aside_given_a_walks_style_keeps_its_look(model, dataset_clips: list[ClipRef]) -> None:  # type: ignore[no-untyped-def]
+    """A held-out walk whose head turns 55 degrees to its left for about two seconds, given an elderly walk's
+    style: where the content travels, a gaze far from the window's (over twice `--spine-lean-above`) keeps
+    the spine's action too. Before, only a standing head's turn counted and the walk came out looking ahead
+    (its head turned 8 degrees from its carriage at the 95th percentile, the content 56); now 28."""
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005").read()[0]
+    looking = _swung(walk, "Neck", 55.0, (2.4, 3.0, 3.6), 0.6, "up")  # eased in and out, held between
+    style = clip_named(dataset_clips, "dataset-2_walk_elderly_010").read()[0]
+    content_turn = np.percentile(_head_turn_degrees(looking), 95)
+    assert content_turn > 45.0
+    out = transfer(looking, style, model=model).motion
+    assert np.percentile(_head_turn_degrees(out), 95) > 0.4 * content_turn
+    plain = transfer(walk, style, model=model).motion  # a walk looking ahead still does
+    assert np.percentile(_head_turn_degrees(plain), 95) < 15.0
+
+
 def test_a_bow_shorter_than_a_patch_keeps_its_depth(model, dataset_clips: list[ClipRef]) -> None:  # type: ignore[no-untyped-def]
     """A 4-second clip bowing down and straight up again (its deepest a moment long) given a wave's style:
     the lean offset is the largest over a patch's frames, not of its means, and its keep held at the peak,

@@ -167,7 +167,8 @@ class TransferConfig:
         "as a point 0.75 leg lengths ahead, where the content's turns at least as far as the window's) differs "
         "at some frame of a patch from the matched style window's by more than this (leg lengths), the spine "
         "keeps the content's action (a bow or a nod given a wave's style still bows or nods), eased in over 0.15 "
-        "above it; 9: never",
+        "above it; where the content travels, its gaze alone counts, at twice this (a look aside while walking); "
+        "9: never",
         low=0.0, high=9.0,
     )  # fmt: skip
     keep_part: str = option(

@@ -31,6 +31,12 @@ KEEP_RAMP = 0.15  # a part's share of the content's action rises from 0 to 1 ove
 # its window, matched over a span that mixes the content's rest pose with its action, may begin or end mid-
 # gesture (27 of 150 held-out gesture and cross outputs had a hand over 0.3 legs from the content's at an end)
 ARM_ENDS_PATCHES = 0.5
+# where the content travels, its head's gaze counts where it departs from the window's by this many times
+# `TransferConfig.spine_lean_above`: a walk looking 55 degrees aside given a walk's style kept 8 to 19 degrees
+# of it, now 34 to 39; at the threshold itself, a walk's or a run's ordinary head motion counted too, and the
+# referee's turn and run naturalness fell (2.16 -> 2.27, 3.67 -> 3.77); at twice, 13 of its 78 outputs change,
+# none of its figures
+TRAVELLING_GAZE = 2.0
 MISMATCH_FLOOR = 0.3  # legs (per second): what a part's mismatch is relative to, at the least
 
 
@@ -68,7 +74,8 @@ def part_keeps(
     ease: the shares' easing in time, grid steps. Where the legs do another action than the windows (a walk
     matched against a run or a wave, in place a kick or a crouch against a stand), legs and spine keep the
     content's action; where the content does not travel and its head leans away from its carriage otherwise
-    than the window's (a bow against a standing wave), the spine does; where an arm's hand is elsewhere or
+    than the window's (a bow against a standing wave), or turns further from it (a nod, a look aside; where it
+    travels, `TRAVELLING_GAZE` times as far), the spine does; where an arm's hand is elsewhere or
     goes back and forth where the window's does not (or the other way round), and wherever the content keeps
     its place and its legs their action while the windows travel, that arm does. The spine's mean posture
     reads where it keeps the content's action for the legs' sake, not where it leans otherwise (the change
@@ -168,6 +175,9 @@ def part_keeps(
             keep_share(on_grid(*gap), config.spine_lean_above, ease, held=True) * in_place
             for gap in (lean, gaze)
         )
+        # travelling, a turn of the head far from the window's is an action too (a look aside while walking)
+        above = TRAVELLING_GAZE * config.spine_lean_above
+        looks = looks + (1 - in_place) * keep_share(on_grid(*gaze), above, ease, held=True)
         keep["spine"] = np.max([keep.get("spine", np.zeros_like(grid)), leans, looks], axis=0)
         # where the head alone turns otherwise, the windows' change to the trunk is still its carriage; where
         # the trunk leans otherwise, that change is a bow undone, not a carriage
