@@ -142,7 +142,7 @@ def test_joints_between_two_of_the_models_are_read_as_one_bone(walk: Motion) -> 
 
 
 MIXAMO = {
-    "Hips": "Hips", "Spine": "Spine", "Chest": "Spine2", "Neck": "Neck", "Head": "Head",
+    "joint_Root": "Root", "Hips": "Hips", "Spine": "Spine", "Chest": "Spine2", "Neck": "Neck", "Head": "Head",
     "Shoulder_L": "LeftShoulder", "UpperArm_L": "LeftArm", "LowerArm_L": "LeftForeArm", "Hand_L": "LeftHand",
     "Shoulder_R": "RightShoulder", "UpperArm_R": "RightArm", "LowerArm_R": "RightForeArm", "Hand_R": "RightHand",
     "UpperLeg_L": "LeftUpLeg", "LowerLeg_L": "LeftLeg", "Foot_L": "LeftFoot", "Toes_L": "LeftToeBase",
@@ -156,31 +156,58 @@ def test_rigs_with_more_spine_and_neck_joints_under_other_names(walk: Motion, tm
     model's Spine, Chest; CMU: Neck, Neck1, Head), under names of their own: both were refused ("skeleton
     differs from the model"), or CMU's Neck1 read as the head and the real head carried as an extra joint,
     10 degrees off. Now the extra chain joints are read into the model's bones, found by the hierarchy and
-    the bones' lengths: every model joint as the plain walk's transfer, also from a file."""
+    the bones' lengths: every model joint as the plain walk's transfer, also from a file. Also with fingers
+    and a head tip, and with a root kept above the hips, whose offset places the body rather than makes a
+    bone (scaled by it, Spine1 was read as the model's Spine, 18 cm off; with fingers, refused), and with IK
+    targets below that root (the body's height read below the hips' match, not from the root)."""
     from elastyle import transfer
 
     clip = walk.slice(0, 60)
     turn = np.zeros((clip.num_frames, 3))
     turn[:, 2] = 0.1 * np.sin(np.linspace(0.0, 6.0, clip.num_frames))
     plain = transfer(clip, walk).motion
-    mixamo = _without_root(_with_joint_between(clip, "Spine", "Chest", "Spine1", turn))
-    mixamo = mixamo.renamed([f"mixamorig:{MIXAMO[name]}" for name in mixamo.skeleton.names])
+    spined = _with_joint_between(clip, "Spine", "Chest", "Spine1", turn)
     cmu = _with_joint_between(clip, "Neck", "Head", "Neck1", turn)
-    cmu = cmu.renamed([CMU.get(name, name) for name in cmu.skeleton.names])
-    for content, inserted in ((mixamo, "mixamorig:Spine1"), (cmu, "Neck1")):
-        path = tmp_path / f"{inserted.replace(':', '_')}.bvh"
+    placed = _with_fingers(
+        spined
+    )  # ... its hips' offset their place at the first frame, as exporters write it
+    offsets = placed.skeleton.offsets.copy()
+    offsets[1] = placed.translations[0, 1]
+    placed = Motion(
+        replace(placed.skeleton, offsets=offsets), placed.rotations, placed.translations, walk.fps
+    )
+    rigs = {  # each rig, the name it gives a model joint, and its joint between two of the model's
+        "mixamo": (_without_root(spined), lambda name: f"mixamorig:{MIXAMO[name]}", "mixamorig:Spine1"),
+        "mixamo, fingers, a root": (placed, lambda name: MIXAMO.get(name, name), "Spine1"),
+        "a root with IK targets below it": (  # no pelvis that branches first: the height below the hips'
+            _with_leaves(
+                _with_leaves(placed, [("ik_foot_root", "joint_Root", np.zeros(3))]),
+                [
+                    (f"ik_foot_{side}", "ik_foot_root", np.array([x, 5.0, 0.0]))
+                    for side, x in (("l", 10.0), ("r", -10.0))
+                ],
+            ),
+            lambda name: MIXAMO.get(name, name),
+            "Spine1",
+        ),
+        "cmu": (cmu, lambda name: CMU.get(name, name), "Neck1"),
+    }
+    for rig, (content, named, inserted) in rigs.items():
+        content = content.renamed([named(name) for name in content.skeleton.names])
+        path = tmp_path / f"{rig}.bvh"
         write_bvh(path, content)
         content = read_bvh(path)[0]
         result = transfer(content, walk)
         assert any(
             f"1 joint(s) between two of the model's ({inserted})" in n for n in result.explain["notes"]
+        ), rig
+        ours = tuple(name for name in walk.skeleton.names if named(name) in content.skeleton.names)
+        theirs = tuple(map(named, ours))
+        np.testing.assert_allclose(
+            _on_joints(result.motion, theirs), _on_joints(plain, ours), atol=1e-3, err_msg=rig
         )
-        output = result.motion
-        matched = tuple(name for name in content.skeleton.names if name != inserted)  # the model's order
-        ours = walk.skeleton.names[len(walk.skeleton.names) - len(matched) :]  # Mixamo's lacks joint_Root
-        np.testing.assert_allclose(_on_joints(output, matched), _on_joints(plain, ours), atol=1e-3)
         at = content.skeleton.index(inserted)
-        np.testing.assert_allclose(output.rotations[:, at], content.rotations[:, at], atol=1e-5)
+        np.testing.assert_allclose(result.motion.rotations[:, at], content.rotations[:, at], atol=1e-5)
 
 
 @pytest.mark.parametrize("scheme", list(SCHEMES))

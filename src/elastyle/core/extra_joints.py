@@ -21,7 +21,7 @@ import weakref
 
 import numpy as np
 
-from elastyle.core.body import standing_height
+from elastyle.core.body import find_limbs, standing_height
 from elastyle.core.motion import Motion
 from elastyle.core.roots import below, in_world
 from elastyle.core.rotations import from_matrix, to_matrix
@@ -172,9 +172,13 @@ def _tree(model: Skeleton, clip: Skeleton, fold: bool) -> IntArray | None:
     return None
 
 
-# at most this many clip joints lie between a model joint's match and its parent's (a spine of five joints
-# against the model's two, say; none where the clip reads without)
-MOST_FOLDED = 3
+# at most this many clip joints lie between a model joint's match and its parent's (Unreal's five spine joints
+# against the model's two take 3; none where the clip reads without)
+MOST_FOLDED = 5
+# what each joint folded costs a match's likeness (a cosine less the log of the lengths' ratio): a chain is read
+# as it is unless a joint further down it has a bone clearly more alike the model's (a zero-length hip joint's
+# child, a neck joint's head)
+FOLD_COST = 0.1
 
 
 def _chain(clip: Skeleton, child: int, fold: bool) -> list[int]:
@@ -239,8 +243,17 @@ def _choose(
     if len(below) < len(ours) or len(below) > MAX_CHOSEN_CHILDREN:
         return None
     parent_bones = float(np.linalg.norm(model.offsets[joint])), float(np.linalg.norm(bone))
-    scale = (  # clip lengths per model length: the parents' bones, or else the bodies' heights
-        parent_bones[1] / parent_bones[0] if min(parent_bones) > 0 else _height(clip) / _height(model)
+    # clip lengths per model length: the parents' bones, or else the bodies' heights; folding, at the pelvis,
+    # whose offset places the body rather than makes a bone, the heights of the body below its match (a root
+    # kept above the hips placed them 516 units away against the model's 427, and the spine's chain was read
+    # one joint short; a root with IK targets below it is no pelvis)
+    body = _height_below(clip, theirs) if fold and joint == model.pelvis else 0.0
+    scale = (
+        body / _height(model)
+        if body > 0
+        else parent_bones[1] / parent_bones[0]
+        if min(parent_bones) > 0
+        else _height(clip) / _height(model)
     )
 
     def alike(a: int, theirs_bone: FloatArray) -> float:
@@ -256,8 +269,8 @@ def _choose(
     for a in ours:
         for b in below:
             held = [
-                (alike(a, clip.offset_from(theirs, c)), c)
-                for c in _chain(clip, b, fold)
+                (alike(a, clip.offset_from(theirs, c)) - FOLD_COST * folded, c)
+                for folded, c in enumerate(_chain(clip, b, fold))
                 if _holds(model, clip, a, c, clip.offset_from(theirs, c), fold, memo)
             ]
             best_in[a, b] = max(held, key=lambda pair: pair[0]) if held else None
@@ -294,6 +307,26 @@ def _height(skeleton: Skeleton) -> float:
     if skeleton not in _HEIGHTS:
         _HEIGHTS[skeleton] = standing_height(skeleton) or 1.0
     return _HEIGHTS[skeleton]
+
+
+def _height_below(skeleton: Skeleton, top: int) -> float:
+    """The `standing_height` of the skeleton's joints from `top` down, as a skeleton of their own; 0 where
+    its legs are not found there."""
+
+    def under(joint: int) -> bool:
+        while joint >= 0 and joint != top:
+            joint = int(skeleton.parents[joint])
+        return joint == top
+
+    joints = [top, *(joint for joint in range(skeleton.num_joints) if joint != top and under(joint))]
+    index = {joint: at for at, joint in enumerate(joints)}
+    below = Skeleton(
+        tuple(skeleton.names[joint] for joint in joints),
+        np.array([index.get(int(skeleton.parents[joint]), -1) for joint in joints]),
+        skeleton.offsets[joints],
+        skeleton.end_sites[joints],
+    )
+    return standing_height(below) if len(find_limbs(below).toes) else 0.0
 
 
 MAX_PAIRED_CHILDREN = 6  # more children than this are paired in their order (720 orders tried at most)
