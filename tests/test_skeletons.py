@@ -115,28 +115,46 @@ def test_joints_between_two_of_the_models_are_read_as_one_bone(walk: Motion) -> 
     """A twist joint mid-arm under the model's names, turning (its forearm turning back): was refused (read
     "by the hierarchy", the twist had been taken for the elbow and the output bent the upper arm at it by 29
     degrees). Now the model reads the upper arm and the twist as one bone: every model joint of the output as
-    the plain walk's transfer, each twist turning as the clip's, and strength 0 the clip itself (to 1e-4 cm)."""
+    the plain walk's transfer, each twist turning as the clip's, and strength 0 the clip itself (to 1e-4 cm).
+    Also as the usual export (Hips its ROOT), with the arms resting 45 degrees lower (re-posed with the twists
+    turning as the upper arms above them), and with a bone between the static root and the hips, whose
+    output keeps the transfer's path for them (the clip's had been written back: the pelvis 6.4 cm off)."""
     from elastyle import transfer
 
     clip = walk.slice(0, 60)
     turn = np.zeros((clip.num_frames, 3))
     turn[:, 0] = 0.4 * np.sin(np.linspace(0.0, 3.0, clip.num_frames))  # about the bone, up to 23 degrees
-    twisted = _with_joint_between(clip, "UpperArm_L", "LowerArm_L", "UpperArmTwist_L", turn)
-    twisted = _with_joint_between(twisted, "UpperArm_R", "LowerArm_R", "UpperArmTwist_R", -turn)
-    np.testing.assert_allclose(_on_joints(twisted, walk.skeleton.names), clip.positions(), atol=1e-4)
+
+    def twisted(motion: Motion) -> Motion:
+        motion = _with_joint_between(motion, "UpperArm_L", "LowerArm_L", "UpperArmTwist_L", turn)
+        return _with_joint_between(motion, "UpperArm_R", "LowerArm_R", "UpperArmTwist_R", -turn)
+
+    above = _with_joint_between(clip, "joint_Root", "Hips", "RootBone")  # a still bone at the root ...
+    translations, offsets = above.translations.copy(), above.skeleton.offsets.copy()
+    translations[:, 1], offsets[1] = 0.0, 0.0
+    translations[:, 2], offsets[2] = clip.translations[:, 1], clip.skeleton.offsets[1]  # ... the hips moving
+    above = Motion(replace(above.skeleton, offsets=offsets), above.rotations, translations, clip.fps)
     plain = transfer(clip, walk).motion
-    for content in (twisted, _without_root(twisted)):  # also as the usual export, Hips its ROOT
+    contents = {  # each content, and the joints between two of the model's it has
+        "twists": (twisted(clip), ("UpperArmTwist_L", "UpperArmTwist_R")),
+        "twists, Hips the ROOT": (_without_root(twisted(clip)), ("UpperArmTwist_L", "UpperArmTwist_R")),
+        "twists, an A-pose": (twisted(_arms_rested_at(clip, 45.0)), ("UpperArmTwist_L", "UpperArmTwist_R")),
+        "a bone above the hips": (above, ("RootBone",)),
+    }
+    for case, (content, between) in contents.items():
+        names = tuple(name for name in walk.skeleton.names if name in content.skeleton.names)
+        np.testing.assert_allclose(_on_joints(content, names), _on_joints(clip, names), atol=1e-4)
         result = transfer(content, walk)
-        assert any(
-            "2 joint(s) between two of the model's (UpperArmTwist_L" in n for n in result.explain["notes"]
-        )
+        said = f"{len(between)} joint(s) between two of the model's ({between[0]}"
+        assert any(said in n for n in result.explain["notes"]), case
         output = result.motion
         assert output.skeleton.names == content.skeleton.names
-        names = tuple(name for name in walk.skeleton.names if name in content.skeleton.names)
-        np.testing.assert_allclose(_on_joints(output, names), _on_joints(plain, names), atol=1e-3)
-        for name in ("UpperArmTwist_L", "UpperArmTwist_R"):
-            twist = content.skeleton.index(name)
-            np.testing.assert_allclose(output.rotations[:, twist], content.rotations[:, twist], atol=1e-9)
+        np.testing.assert_allclose(
+            _on_joints(output, names), _on_joints(plain, names), atol=1e-3, err_msg=case
+        )
+        for name in between:
+            at = content.skeleton.index(name)
+            np.testing.assert_allclose(output.rotations[:, at], content.rotations[:, at], atol=1e-6)
         unstyled = transfer(content, walk, strength=0).motion
         np.testing.assert_allclose(unstyled.positions(), content.positions(), atol=1e-4)
 
@@ -159,7 +177,8 @@ def test_rigs_with_more_spine_and_neck_joints_under_other_names(walk: Motion, tm
     the bones' lengths: every model joint as the plain walk's transfer, also from a file. Also with fingers
     and a head tip, and with a root kept above the hips, whose offset places the body rather than makes a
     bone (scaled by it, Spine1 was read as the model's Spine, 18 cm off; with fingers, refused), and with IK
-    targets below that root (the body's height read below the hips' match, not from the root)."""
+    targets below that root (the body's height read below the hips' match, not from the root), with tips as
+    joints, and with CMU's hip joints carrying the thighs' offsets."""
     from elastyle import transfer
 
     clip = walk.slice(0, 60)
@@ -176,9 +195,18 @@ def test_rigs_with_more_spine_and_neck_joints_under_other_names(walk: Motion, tm
     placed = Motion(
         replace(placed.skeleton, offsets=offsets), placed.rotations, placed.translations, walk.fps
     )
-    rigs = {  # each rig, the name it gives a model joint, and its joint between two of the model's
-        "mixamo": (_without_root(spined), lambda name: f"mixamorig:{MIXAMO[name]}", "mixamorig:Spine1"),
-        "mixamo, fingers, a root": (placed, lambda name: MIXAMO.get(name, name), "Spine1"),
+    tips = [("HeadTop_End", "Head", 2.6), ("LeftToe_End", "Toes_L", 0.5), ("RightToe_End", "Toes_R", 0.5)]
+    bones = (
+        spined.skeleton.offsets
+    )  # Mixamo's tips as joints (their lengths, in their joints' bones), no fingers:
+    tipped = _with_leaves(  # the tips made the body taller, and with no cost to a fold it was read 18 cm off
+        _without_root(spined),
+        [(tip, name, share * bones[spined.skeleton.index(name)]) for tip, name, share in tips],
+    )
+    rigs = {  # each rig, the name it gives a model joint, and its joints between two of the model's
+        "mixamo": (_without_root(spined), lambda name: f"mixamorig:{MIXAMO[name]}", ("mixamorig:Spine1",)),
+        "mixamo, tips": (tipped, lambda name: f"mixamorig:{MIXAMO.get(name, name)}", ("mixamorig:Spine1",)),
+        "mixamo, fingers, a root": (placed, lambda name: MIXAMO.get(name, name), ("Spine1",)),
         "a root with IK targets below it": (  # no pelvis that branches first: the height below the hips'
             _with_leaves(
                 _with_leaves(placed, [("ik_foot_root", "joint_Root", np.zeros(3))]),
@@ -188,26 +216,33 @@ def test_rigs_with_more_spine_and_neck_joints_under_other_names(walk: Motion, tm
                 ],
             ),
             lambda name: MIXAMO.get(name, name),
-            "Spine1",
+            ("Spine1",),
         ),
-        "cmu": (cmu, lambda name: CMU.get(name, name), "Neck1"),
+        "cmu": (cmu, lambda name: CMU.get(name, name), ("Neck1",)),
+        # hip joints that carry the thighs' offsets, the thighs at their place: each thigh is the joint that
+        # turns (read without folds, the legs were taken a joint short and the rig refused)
+        "cmu, hip joints": (
+            _with_hip_joints(clip),
+            lambda name: CMU.get(name, name),
+            ("LHipJoint", "RHipJoint"),
+        ),
     }
-    for rig, (content, named, inserted) in rigs.items():
+    for rig, (content, named, between) in rigs.items():
         content = content.renamed([named(name) for name in content.skeleton.names])
         path = tmp_path / f"{rig}.bvh"
         write_bvh(path, content)
         content = read_bvh(path)[0]
         result = transfer(content, walk)
-        assert any(
-            f"1 joint(s) between two of the model's ({inserted})" in n for n in result.explain["notes"]
-        ), rig
+        said = f"{len(between)} joint(s) between two of the model's ({between[0]}"
+        assert any(said in n for n in result.explain["notes"]), rig
         ours = tuple(name for name in walk.skeleton.names if named(name) in content.skeleton.names)
         theirs = tuple(map(named, ours))
         np.testing.assert_allclose(
             _on_joints(result.motion, theirs), _on_joints(plain, ours), atol=1e-3, err_msg=rig
         )
-        at = content.skeleton.index(inserted)
-        np.testing.assert_allclose(result.motion.rotations[:, at], content.rotations[:, at], atol=1e-5)
+        for name in between:
+            at = content.skeleton.index(name)
+            np.testing.assert_allclose(result.motion.rotations[:, at], content.rotations[:, at], atol=1e-5)
 
 
 @pytest.mark.parametrize("scheme", list(SCHEMES))

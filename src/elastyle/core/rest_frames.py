@@ -13,7 +13,7 @@ import itertools
 
 import numpy as np
 
-from elastyle.core.extra_joints import folded_joints
+from elastyle.core.joint_tree import folded_joints
 from elastyle.core.motion import Motion
 from elastyle.core.rotations import from_matrix, to_matrix
 from elastyle.core.skeleton import Skeleton
@@ -76,9 +76,8 @@ def rest_rotations(clip: Skeleton, reference: Skeleton, joints: IntArray, first:
         pairs = [(a, b) for a, b in pairs if np.linalg.norm(a) > 1e-9 and np.linalg.norm(b) > 1e-9]
         if pairs:
             rest[theirs] = _best_rotation(*(np.array(side) for side in zip(*pairs)))
-    for joint in folded_joints(
-        clip, joints
-    ):  # top down: a chain read as one bone turns as the joint above it
+    # top down: a chain read as one bone turns as the joint above it
+    for joint in folded_joints(clip, joints):
         rest[joint] = rest[clip.parents[joint]]
     return rest
 

@@ -21,13 +21,9 @@ from typing import Any
 import numpy as np
 
 from elastyle.core.body import at_size_of, same_rest_pose, same_structure
-from elastyle.core.extra_joints import (
-    folded_joints,
-    model_joints_in,
-    with_extra_joints,
-    without_extra_joints,
-)
+from elastyle.core.extra_joints import model_joints_in, with_extra_joints, without_extra_joints
 from elastyle.core.ground import floor_gap, has_feet, raised
+from elastyle.core.joint_tree import folded_joints
 from elastyle.core.motion import Motion
 from elastyle.core.rest_frames import AXIS_TURNS, frames_reposed, frames_turned, rest_degrees, rest_rotations
 from elastyle.core.roots import with_added_roots, without_added_roots
