@@ -104,17 +104,18 @@ MOST_FOLDED = 5
 FOLD_COST = 0.1
 
 
-def _chain(clip: Skeleton, child: int, fold: bool) -> list[int]:
-    """The clip joints that may match a model joint below the clip child `child`'s parent: the child, and
-    with `fold` the joints down its chain of single children (at most `MOST_FOLDED` below it)."""
+def _chain(clip: Skeleton, child: int, fold: bool) -> list[tuple[int, int]]:
+    """The clip joints that may match a model joint below the clip child `child`'s parent, each with how many
+    joints above it would be folded: the child, and with `fold` the joints down its chain of single children
+    (at most `MOST_FOLDED` below it)."""
     chain = [child]
     while fold and len(chain) <= MOST_FOLDED and len(clip.children(chain[-1])) == 1:
         chain.append(clip.children(chain[-1])[0])
     # of joints at one place along the chain (a bone of no length between them), the last: its bone is the one
     # that turns (a tip at its joint's place is no joint of the chain)
     return [
-        joint
-        for joint, below in zip(chain, [*chain[1:], -1])
+        (folded, joint)
+        for folded, (joint, below) in enumerate(zip(chain, [*chain[1:], -1]))
         if below < 0 or float(np.linalg.norm(clip.offsets[below])) > 0 or not clip.children(below)
     ]
 
@@ -153,21 +154,9 @@ def _chosen(
     parents' bones: a body's height counts joints the model lacks); None where none can. memo: answers
     already found in this reading."""
     key = (joint, theirs, bone.tobytes())
-    if key not in memo:
-        memo[key] = _best_pairing(model, clip, joint, theirs, bone, fold, memo)
-    return memo[key]
-
-
-def _best_pairing(
-    model: Skeleton,
-    clip: Skeleton,
-    joint: int,
-    theirs: int,
-    bone: FloatArray,
-    fold: bool,
-    memo: _Memo,
-) -> list[int] | None:
-    """`_chosen`, not looked up."""
+    if key in memo:
+        return memo[key]
+    memo[key] = None  # until a pairing is found
     ours, below = model.children(joint), clip.children(theirs)
     if len(below) < len(ours) or len(below) > MAX_CHOSEN_CHILDREN:
         return None
@@ -199,7 +188,7 @@ def _best_pairing(
         for b in below:
             held = [
                 (alike(a, clip.offset_from(theirs, c)) - FOLD_COST * folded, c)
-                for folded, c in enumerate(_chain(clip, b, fold))
+                for folded, c in _chain(clip, b, fold)
                 if _holds(model, clip, a, c, clip.offset_from(theirs, c), fold, memo)
             ]
             best_in[a, b] = max(held, key=lambda pair: pair[0]) if held else None
@@ -210,6 +199,7 @@ def _best_pairing(
             score = sum(pair[0] for pair in pairs if pair is not None)
             if score > best_score + 1e-9:
                 best, best_score = [pair[1] for pair in pairs if pair is not None], score
+    memo[key] = best
     return best
 
 
