@@ -1243,3 +1243,84 @@ def test_a_body_whose_legs_are_longer_or_shorter_for_its_height_walks_as_tall_as
     height_ratio = proportioned.translations[:, pelvis, 1].mean() / usual.translations[:, pelvis, 1].mean()
     assert abs(height_ratio / legs - 1) < 0.02
     assert floor_skating_cm_s(proportioned) < floor_skating_cm_s(usual) + 3.0
+
+
+def _unturned(motion: Motion, names: tuple[str, ...]) -> Motion:
+    """The clip with the named joints unrotated throughout (as a rig without them moves)."""
+    rotations = motion.rotations.copy()
+    rotations[:, [motion.skeleton.index(name) for name in names]] = 0.0
+    return Motion(motion.skeleton, rotations, motion.translations, motion.fps)
+
+
+def _without_middle(motion: Motion, name: str) -> Motion:
+    """The clip without the named joint, its children hung on its parent at their places (their rotations
+    as they are: the clip's world motion where the joint is unrotated)."""
+    skeleton = motion.skeleton
+    joint = skeleton.index(name)
+    kept = [j for j in range(skeleton.num_joints) if j != joint]
+    index = {old: new for new, old in enumerate(kept)}
+    above = int(skeleton.parents[joint])
+    parents = [index[above if p == joint else int(p)] if p >= 0 else -1 for p in skeleton.parents[kept]]
+    children = skeleton.parents == joint
+    offsets = skeleton.offsets.copy()
+    offsets[children] += skeleton.offsets[joint]
+    translations = motion.translations.copy()
+    translations[:, children] += skeleton.offsets[joint]
+    other = Skeleton(tuple(skeleton.names[j] for j in kept), np.array(parents), offsets[kept],
+                     skeleton.end_sites[kept])  # fmt: skip
+    return Motion(other, motion.rotations[:, kept], translations[:, kept], motion.fps)
+
+
+def test_rigs_without_some_of_the_models_joints_are_read_with_them_added(walk: Motion) -> None:
+    """Rigs whose feet end at the ankle, or without a neck or collarbones, were refused ("skeleton differs
+    from the model (only in the model: Toes_L, Toes_R)"). The model now reads them with the joints they lack
+    added at rest, and the output is written on their own joints: a toe-less rig, under the model's names or
+    Mixamo's, transfers as the model's own rig whose toes never turn; without a neck, as the rig whose neck
+    never turns, but for the head's place along the bone; at strength 0 the output is the content. A rig
+    that lacks a chain (an arm) is still refused."""
+    from elastyle import transfer
+
+    clip = walk.slice(0, 90)
+    flat = _unturned(clip, ("Toes_L", "Toes_R"))
+    expected = transfer(flat, walk).motion
+    toeless = _without_toes(flat)
+    mixamo = {**MIXAMO, "Toes_L": "", "Toes_R": ""}
+    for rig in (toeless, toeless.renamed([f"mixamorig:{mixamo[n]}" for n in toeless.skeleton.names])):
+        result = transfer(rig, walk)
+        assert any("it lacks the model's Toes_L, Toes_R" in note for note in result.explain["notes"])
+        assert result.motion.skeleton is rig.skeleton
+        kept = [expected.skeleton.index(name) for name in walk.skeleton.names if not name.startswith("Toes")]
+        np.testing.assert_allclose(result.motion.positions(), expected.positions()[:, kept], atol=1e-3)
+        unstyled = transfer(rig, walk, strength=0).motion
+        np.testing.assert_allclose(unstyled.positions(), rig.positions(), atol=1e-4)
+    still = _unturned(clip, ("Neck",))
+    necked = transfer(still, walk).motion
+    for name, joints in (("Neck", ("Neck",)), ("Shoulder_L", ("Shoulder_L", "Shoulder_R"))):
+        rig = _unturned(clip, joints)
+        for joint in joints:
+            rig = _without_middle(rig, joint)
+        result = transfer(rig, walk)
+        assert any(f"it lacks the model's {name}" in note for note in result.explain["notes"])
+        if name == "Neck":
+            kept = [necked.skeleton.index(n) for n in rig.skeleton.names]
+            gap = np.linalg.norm(result.motion.positions() - necked.positions()[:, kept], axis=-1)
+            assert gap.max() < 1.0, gap.max()
+        np.testing.assert_allclose(
+            transfer(rig, walk, strength=0).motion.positions(), rig.positions(), atol=1e-4
+        )
+    one_armed = Motion(
+        _without_joints(clip.skeleton, {"Shoulder_R", "UpperArm_R", "LowerArm_R", "Hand_R"}),
+        np.delete(
+            clip.rotations,
+            [clip.skeleton.index(n) for n in ("Shoulder_R", "UpperArm_R", "LowerArm_R", "Hand_R")],
+            axis=1,
+        ),
+        np.delete(
+            clip.translations,
+            [clip.skeleton.index(n) for n in ("Shoulder_R", "UpperArm_R", "LowerArm_R", "Hand_R")],
+            axis=1,
+        ),
+        clip.fps,
+    )
+    with pytest.raises(SkeletonMismatchError, match="only in the model: Shoulder_R"):
+        transfer(one_armed, walk)

@@ -27,7 +27,6 @@ from elastyle.io.dataset import (
     is_held_out,
     labelled_clips,
 )
-from elastyle.model.features import FeatureSpec
 from elastyle.model.file import StyleModel
 from elastyle.steps.config import TransferConfig
 
@@ -54,12 +53,11 @@ class Classifiers:
     content: RidgeClassifier
     style_accuracy: float
     content_accuracy: float
-    features: FeatureSpec
-    fps: float  # the model's frame rate, at which descriptors are taken
+    model: StyleModel  # descriptors are taken on its joints (`described`), at its frame rate
 
     def recognised(self, output: Motion, style: ClipRef, content: ClipRef) -> tuple[bool, bool]:
         """Whether `output` is classified as the style clip's style, and as the content clip's content."""
-        descriptor = describe(output.resample(self.fps), self.features)[None]
+        descriptor = described(output, self.model)[None]
         style_label, content_label = _label(style), _label(content)
         return (
             self.style.predict(descriptor)[0] == style_label.style,
@@ -80,7 +78,7 @@ def train_classifiers(data: str, model: StyleModel, per_class: int = 12) -> Clas
     for clip, label in labelled_clips(find_clips([data])):
         groups.setdefault((label.content, label.style, is_held_out(clip)), []).append((clip, label))
     chosen = [item for group in groups.values() for item in group[:per_class]]
-    descriptors = {c.name: describe(c.read()[0].resample(model.fps), model.features) for c, _ in chosen}
+    descriptors = {c.name: described(c.read()[0], model) for c, _ in chosen}
 
     def split(held_out: bool) -> tuple[np.ndarray, list[str], list[str]]:
         rows = [(c, label) for c, label in chosen if is_held_out(c) == held_out]
@@ -99,8 +97,14 @@ def train_classifiers(data: str, model: StyleModel, per_class: int = 12) -> Clas
     style, content = RidgeClassifier.fit(x_train, styles), RidgeClassifier.fit(x_train, contents)
     return Classifiers(
         style, content, style.accuracy(x_test, styles_test), content.accuracy(x_test, contents_test),
-        model.features, model.fps,
+        model,
     )  # fmt: skip
+
+
+def described(motion: Motion, model: StyleModel) -> np.ndarray:
+    """A clip's descriptor (`eval.classify.describe`) on the model's joints (`StyleModel.on_model_hierarchy`:
+    a clip of another export of the model's rig too) at the model's frame rate."""
+    return describe(model.on_model_hierarchy(motion).resample(model.fps), model.features)
 
 
 def run_benchmark(data: str, model: StyleModel, max_pairs: int = 24) -> dict[str, Any]:

@@ -16,7 +16,7 @@ from dataclasses import asdict, dataclass, field
 from functools import cached_property
 from io import BytesIO
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -24,6 +24,7 @@ from elastyle.core.body import at_size_of, same_rest_pose, same_structure
 from elastyle.core.extra_joints import model_joints_in, with_extra_joints, without_extra_joints
 from elastyle.core.ground import floor_gap, has_feet, raised
 from elastyle.core.joint_tree import folded_joints
+from elastyle.core.missing_joints import Completion, completed, completion, uncompleted
 from elastyle.core.motion import Motion
 from elastyle.core.rest_frames import AXIS_TURNS, frames_reposed, frames_turned, rest_degrees, rest_rotations
 from elastyle.core.roots import with_added_roots, without_added_roots
@@ -103,8 +104,11 @@ class StyleModel:
         """The clip on the model's joints: its joints' axes turned to the model's where an exporter turned
         them all (`core.rest_frames`), joints the model lacks below its own dropped and its own put in the
         model's order (`core.extra_joints`: fingers, props, tips), and the joints above its root that the
-        model has and it lacks added at rest (`core.roots`: a static root some exporters drop); any other
-        clip as it is."""
+        model has and it lacks added at rest (`core.roots`: a static root some exporters drop), as are the
+        model's joints it lacks elsewhere (`core.missing_joints`: a toe, a neck); any other clip as it is."""
+        found = self.completion(motion)
+        if found is not None:
+            motion = completed(motion, found)
         rest = self.rest_pose(motion)
         if rest is not None:
             motion = frames_reposed(motion, rest)
@@ -119,7 +123,16 @@ class StyleModel:
     def on_clip_hierarchy(self, motion: Motion, clip_at: Motion) -> Motion:
         """An output on the model's hierarchy (`on_model_hierarchy` of the clip) back on the clip's own
         skeleton: the added root joints dropped, its axes turned back, the clip's other joints as `clip_at`,
-        the clip at the output's N moments, has them, and its own rest pose."""
+        the clip at the output's N moments, has them, and its own rest pose; the model's joints it lacks left
+        out (`core.missing_joints.uncompleted`)."""
+        found = self.completion(clip_at)
+        if found is not None:
+            own = self._on_clip_joints(motion, completed(clip_at, found))
+            return uncompleted(own, clip_at.skeleton, found)
+        return self._on_clip_joints(motion, clip_at)
+
+    def _on_clip_joints(self, motion: Motion, clip_at: Motion) -> Motion:
+        """`on_clip_hierarchy` for a clip with every model joint."""
         rest = self.rest_pose(clip_at)
         if rest is None:
             return self._on_clip_hierarchy(motion, clip_at)
@@ -138,6 +151,26 @@ class StyleModel:
         if turn is not None:
             motion = frames_turned(motion, turn.T)
         return motion if joints is None else with_extra_joints(motion, clip_at, joints)
+
+    def completion(self, motion: Motion) -> Completion | None:
+        """The model's joints a clip lacks and where they go (`core.missing_joints.completion`), where the model
+        reads it with them added and not without; None otherwise. Found once per clip skeleton."""
+        return _once_per_skeleton(_COMPLETIONS, self.skeleton, motion, self._find_completion)
+
+    def _find_completion(self, motion: Motion) -> Completion | None:
+        try:
+            self._check_given(motion, "clip")
+            return None
+        except SkeletonMismatchError:
+            pass
+        found = completion(self.skeleton, motion.skeleton)
+        if found is None:
+            return None
+        try:
+            self._check_given(completed(motion, found), "clip")
+            return found
+        except SkeletonMismatchError:
+            return None
 
     def rest_turn(self, motion: Motion) -> FloatArray | None:
         """The turn (3, 3) of every joint's axes under which the model reads a clip it does not read as it
@@ -210,8 +243,22 @@ class StyleModel:
     def check_clip(self, motion: Motion, what: str) -> str | None:
         """None for a clip of the model's skeleton (its joints and rest pose); a note for one the model reads
         otherwise (`on_model_hierarchy`: other joint names or order, extra joints, a dropped static root,
-        its axes turned); otherwise a `SkeletonMismatchError` naming the clip, what differs, and how to get
-        a model for it."""
+        its axes turned, joints it lacks); otherwise a `SkeletonMismatchError` naming the clip, what differs,
+        and how to get a model for it."""
+        found = self.completion(motion)
+        if found is None:
+            return self._check_given(motion, what)
+        lacking = list(found.names)
+        return _also(
+            f"note: {what}: it lacks the model's {_listed(lacking)}: read with {'it' if len(lacking) == 1 else 'them'} "
+            "added at rest, turning with the joint above, and written without (the joint below takes the turn "
+            "the output gives it)",
+            self._check_given(completed(motion.slice(0, 1), found), what),
+            what,
+        )
+
+    def _check_given(self, motion: Motion, what: str) -> str | None:
+        """`check_clip` for a clip with every model joint."""
         rest = self.rest_pose(motion)
         if rest is not None:
             degrees = rest_degrees(rest)
@@ -347,16 +394,16 @@ def _model_joints(model: Skeleton, clip: Skeleton) -> tuple[IntArray, int] | Non
 
 
 # per model skeleton, per clip skeleton: a turn found for it once (`StyleModel.rest_turn`, `.rest_pose`)
-_PerSkeleton = weakref.WeakKeyDictionary[
-    Skeleton, weakref.WeakKeyDictionary[Skeleton, tuple[FloatArray | None]]
-]
-_REST_POSES: _PerSkeleton = weakref.WeakKeyDictionary()  # the turns of its joints' frames
-_REST_TURNS: _PerSkeleton = weakref.WeakKeyDictionary()  # the turn of its axes
+Found = TypeVar("Found")
+_PerSkeleton = weakref.WeakKeyDictionary[Skeleton, weakref.WeakKeyDictionary[Skeleton, tuple[Found | None]]]
+_REST_POSES: _PerSkeleton[FloatArray] = weakref.WeakKeyDictionary()  # the turns of its joints' frames
+_REST_TURNS: _PerSkeleton[FloatArray] = weakref.WeakKeyDictionary()  # the turn of its axes
+_COMPLETIONS: _PerSkeleton[Completion] = weakref.WeakKeyDictionary()  # the model's joints it lacks
 
 
 def _once_per_skeleton(
-    cache: _PerSkeleton, model: Skeleton, motion: Motion, find: Callable[[Motion], FloatArray | None]
-) -> FloatArray | None:
+    cache: _PerSkeleton[Found], model: Skeleton, motion: Motion, find: Callable[[Motion], Found | None]
+) -> Found | None:
     """`find` of the clip's first frame (one is enough: it decides by the skeleton alone), once per model
     skeleton and clip skeleton."""
     known = cache.setdefault(model, weakref.WeakKeyDictionary())
