@@ -3,8 +3,10 @@ joint, arms without collarbones. The model reads such a clip with each missing j
 rotation of its own, so every clip joint moves in the world as in the clip); the output is written without
 them, each added joint's turn passed on to the joints below it, so they turn in the world as the output's.
 
-Missing joints are found by the model's joint names (any joint whose parent and children the clip has), or,
-where the names do not tell, as the toe joints of legs that end at the ankle.
+Missing joints are found by the model's joint names (toes, spine joints below the head, collarbones, each
+whose parent and children the clip has), or, where the names do not tell, as the toe joints of legs that
+end at the ankle. A rig without a hand, an elbow, a knee or an ankle, or without two joints in a row, is
+not read this way.
 
     completion      which joints a clip lacks and where they go (`Completion`), or None
     completed       the clip with them added at rest
@@ -19,13 +21,12 @@ import numpy as np
 
 from elastyle.core.body import find_limbs
 from elastyle.core.motion import Motion
+from elastyle.core.parts import trunk
+from elastyle.core.rest_frames import best_rotation
 from elastyle.core.rotations import multiply
 from elastyle.core.skeleton import Skeleton, bare_name
 from elastyle.types import FloatArray, IntArray
 
-MOST_MISSING = (
-    6  # at most this many of the model's joints missing (two toes, a chest, a neck, two collarbones)
-)
 TOE_SUFFIX = "_toe"  # an added toe's name, found by the legs alone: its ankle's name and this
 
 
@@ -62,15 +63,45 @@ def completion(model: Skeleton, clip: Skeleton) -> Completion | None:
     """The completion of a clip's skeleton with the model joints it lacks (`_by_name`, else `_toes_by_legs`),
     or None where it lacks none this way."""
     missing = _by_name(model, clip)
-    if missing is None:
+    if missing is None and not _named_mostly(model, clip):  # else the names tell what it lacks
         missing = _toes_by_legs(model, clip)
     return None if not missing else _completed_skeleton(clip, missing)
 
 
+def _named_mostly(model: Skeleton, clip: Skeleton) -> bool:
+    """Whether the clip has at least half the model's joint names (exactly, or without namespaces)."""
+    names = {bare_name(name) for name in clip.names}
+    return 2 * sum(bare_name(name) in names for name in model.names) >= model.num_joints
+
+
+def optional_joints(model: Skeleton) -> set[int]:
+    """The model joints a rig may lack: toe joints below the ankles (with no joints below them), the trunk's
+    joints between the pelvis and its top (a spine, a chest, a neck joint; not the head), and the arms' roots
+    above a chain of three (collarbones). Not a hand, an elbow, a knee or an ankle: a rig without one is
+    not the model's body."""
+    limbs = find_limbs(model)
+    toes = {
+        int(toe) for toe, ankle in zip(limbs.toes, limbs.ankles) if toe != ankle and not model.children(toe)
+    }
+    spine = {joint for joint in trunk(model) if model.children(joint)}
+    collarbones = {
+        int(root)
+        for root in limbs.arm_roots
+        if len(model.children(root)) == 1 and _depth(model, int(root)) >= 3
+    }
+    return toes | spine | collarbones
+
+
+def _depth(skeleton: Skeleton, joint: int) -> int:
+    """How many joints the longest chain below `joint` holds."""
+    return max((1 + _depth(skeleton, child) for child in skeleton.children(joint)), default=0)
+
+
 def _by_name(model: Skeleton, clip: Skeleton) -> list[_Missing] | None:
     """The model's joints missing from a clip that has the others under their names (exactly, or without
-    namespaces), each with its parent and all its children there, directly below the parent; None where
-    the names tell no such thing."""
+    namespaces): each an `optional_joints` one whose parent and every child the clip has, the children
+    directly below the parent; None where the names tell no such thing."""
+    optional = optional_joints(model)
     for key in (str, bare_name):
         where = {key(name): joint for joint, name in enumerate(clip.names)}
         if len(where) < clip.num_joints:
@@ -80,14 +111,14 @@ def _by_name(model: Skeleton, clip: Skeleton) -> list[_Missing] | None:
         if first > model.pelvis:
             continue
         lacking = [joint for joint in range(first, model.num_joints) if found[joint] is None]
-        if not lacking or len(lacking) > MOST_MISSING:
+        if not lacking or not optional.issuperset(lacking):
             continue
         missing = []
         for joint in lacking:
             parent = int(model.parents[joint])
             children = [found[child] for child in model.children(joint)]
             clip_parent = found[parent]
-            if joint == model.pelvis or parent < first or clip_parent is None or None in children:
+            if parent < first or clip_parent is None or None in children:
                 break
             clip_children = [int(c) for c in children if c is not None]
             if any(int(clip.parents[child]) != clip_parent for child in clip_children):
@@ -99,62 +130,72 @@ def _by_name(model: Skeleton, clip: Skeleton) -> list[_Missing] | None:
 
 
 def _toes_by_legs(model: Skeleton, clip: Skeleton) -> list[_Missing] | None:
-    """Toe joints for a clip whose legs end at the ankle where the model's go on to a toe joint with no
-    joints below it (`core.body.find_limbs`); None for any other clip."""
+    """Toe joints below the ankles of a clip's legs that end there, where the model's legs go on to a toe
+    joint (`optional_joints`), each leg paired with the model's whose rest direction from the pelvis is most
+    alike (`core.body.find_limbs`); None for any other clip."""
     ours, theirs = find_limbs(model), find_limbs(clip)
-    if len(ours.toes) != 2 or len(theirs.toes) != 2 or np.any(theirs.toes != theirs.ankles):
+    if len(ours.toes) != 2 or len(theirs.toes) != 2:
         return None
-    if np.any(ours.toes == ours.ankles) or any(model.children(int(toe)) for toe in ours.toes):
-        return None
-    if any(int(model.parents[toe]) != int(ankle) for toe, ankle in zip(ours.toes, ours.ankles)):
-        return None
-    taken = set(clip.names)
-    names = [clip.names[int(ankle)] + TOE_SUFFIX for ankle in theirs.ankles]
-    if taken.intersection(names):
-        return None
-    return [
-        _placed(model, clip, int(toe), int(ankle), [], name)
-        for toe, ankle, name in zip(ours.toes, theirs.ankles, names)
-    ]
+    optional = optional_joints(model)
+
+    def alike(model_ankle: int, clip_ankle: int) -> float:
+        a = model.offset_from(model.pelvis, model_ankle)
+        b = clip.offset_from(clip.pelvis, clip_ankle)
+        sizes = float(np.linalg.norm(a) * np.linalg.norm(b))
+        return float(a @ b) / sizes if sizes > 0 else 0.0
+
+    order = [0, 1]
+    if alike(int(ours.ankles[0]), int(theirs.ankles[1])) + alike(
+        int(ours.ankles[1]), int(theirs.ankles[0])
+    ) > (
+        alike(int(ours.ankles[0]), int(theirs.ankles[0])) + alike(int(ours.ankles[1]), int(theirs.ankles[1]))
+    ):
+        order = [1, 0]
+    missing = []
+    for toe, side in zip(ours.toes.tolist(), order):
+        ankle = int(theirs.ankles[side])
+        if int(theirs.toes[side]) != ankle:
+            continue  # this leg has its toe
+        name = clip.names[ankle] + TOE_SUFFIX
+        if toe not in optional or name in clip.names:
+            return None
+        missing.append(_placed(model, clip, toe, ankle, [], name))
+    return missing or None
 
 
 def _placed(
     model: Skeleton, clip: Skeleton, joint: int, parent: int, children: list[int], name: str
 ) -> _Missing:
     """The model's `joint` placed in the clip below the clip joint `parent`, above `children` (its model
-    children's clip joints). Above children: where the model has it along each child's bone (the share of
-    the way from the parent's place to the child's), the mean of those places. An end joint: along its
-    parent's End Site where the clip has one, else the model's direction, its length the model's in
-    proportion to the parents' bones (never beyond the End Site)."""
+    children's clip joints). Above children: the model's place for it from its parent, turned by the turn
+    that best takes the model's bones from the parent to the children onto the clip's and scaled by their
+    lengths. An end joint (a toe): along its parent's End Site where the clip has one, else the model's
+    direction turned as the parents' bones are; as long as the model's in proportion to the parents' bones."""
     model_parent = int(model.parents[joint])
     if children:
-        places = []
-        for child, model_child in zip(children, model.children(joint)):
-            whole = float(np.linalg.norm(model.offsets[joint] + model.offsets[model_child]))
-            share = float(np.linalg.norm(model.offsets[joint])) / whole if whole > 0 else 0.5
-            places.append(clip.offsets[child] * share)
-        return _Missing(name, model.names[joint], parent, tuple(children), np.mean(places, axis=0),
+        model_bones = np.array([model.offsets[joint] + model.offsets[c] for c in model.children(joint)])
+        clip_bones = clip.offsets[children]
+        usable = (np.linalg.norm(model_bones, axis=1) > 0) & (np.linalg.norm(clip_bones, axis=1) > 0)
+        if not np.any(usable):
+            return _Missing(
+                name, model.names[joint], parent, tuple(children), np.zeros(3), np.full(3, np.nan)
+            )
+        turn = best_rotation(model_bones[usable], clip_bones[usable])
+        scale = float(
+            np.mean(np.linalg.norm(clip_bones[usable], axis=1) / np.linalg.norm(model_bones[usable], axis=1))
+        )
+        return _Missing(name, model.names[joint], parent, tuple(children), scale * turn @ model.offsets[joint],
                         np.full(3, np.nan))  # fmt: skip
-    scale = _scale(model, clip, model_parent, parent)
-    length = float(np.linalg.norm(model.offsets[joint])) * scale
+    ours, theirs = model.offsets[model_parent], clip.offsets[parent]
+    known = float(np.linalg.norm(ours)) > 0 and float(np.linalg.norm(theirs)) > 0
+    scale = float(np.linalg.norm(theirs) / np.linalg.norm(ours)) if known else 1.0
+    turn = best_rotation(ours[None], theirs[None]) if known else np.eye(3)
+    offset = scale * turn @ model.offsets[joint]
     tip = clip.end_sites[parent]
-    model_end = model.end_sites[joint]
     if np.all(np.isfinite(tip)) and np.linalg.norm(tip) > 0:
-        reach = float(np.linalg.norm(tip))
-        offset = tip * min(length, reach) / reach
-        end = tip - offset if reach > length else np.full(3, np.nan)
-    else:
-        size = float(np.linalg.norm(model.offsets[joint]))
-        offset = model.offsets[joint] * (length / size if size > 0 else 0.0)
-        end = model_end * scale
+        offset = tip * float(np.linalg.norm(offset) / np.linalg.norm(tip))
+    end = scale * turn @ model.end_sites[joint]  # NaN where the model's has none
     return _Missing(name, model.names[joint], parent, (), offset, end)
-
-
-def _scale(model: Skeleton, clip: Skeleton, model_joint: int, clip_joint: int) -> float:
-    """Clip units per model unit, from the two joints' bones from their parents (1 where one has none)."""
-    ours = float(np.linalg.norm(model.offsets[model_joint]))
-    theirs = float(np.linalg.norm(clip.offsets[clip_joint]))
-    return theirs / ours if ours > 0 and theirs > 0 else 1.0
 
 
 def _completed_skeleton(clip: Skeleton, missing: list[_Missing]) -> Completion:

@@ -75,14 +75,14 @@ def rest_rotations(clip: Skeleton, reference: Skeleton, joints: IntArray, first:
             pairs = [(reference.end_sites[ours], clip.end_sites[theirs])]
         pairs = [(a, b) for a, b in pairs if np.linalg.norm(a) > 1e-9 and np.linalg.norm(b) > 1e-9]
         if pairs:
-            rest[theirs] = _best_rotation(*(np.array(side) for side in zip(*pairs)))
+            rest[theirs] = best_rotation(*(np.array(side) for side in zip(*pairs)))
     # top down: a chain read as one bone turns as the joint above it
     for joint in folded_joints(clip, joints):
         rest[joint] = rest[clip.parents[joint]]
     return rest
 
 
-def _best_rotation(sources: FloatArray, targets: FloatArray) -> FloatArray:
+def best_rotation(sources: FloatArray, targets: FloatArray) -> FloatArray:
     """The rotation (3, 3) that best takes the directions of sources (K, 3) to those of targets (K, 3): the
     least turn for one, the least squares fit (Kabsch) for several."""
     a = sources / np.linalg.norm(sources, axis=1, keepdims=True)

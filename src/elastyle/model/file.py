@@ -248,11 +248,12 @@ class StyleModel:
         found = self.completion(motion)
         if found is None:
             return self._check_given(motion, what)
-        lacking = list(found.names)
+        lacking, them = list(found.names), "it" if len(found.names) == 1 else "them"
+        above = any(found.skeleton.children(joint) for joint in found.added.tolist())
         return _also(
-            f"note: {what}: it lacks the model's {_listed(lacking)}: read with {'it' if len(lacking) == 1 else 'them'} "
-            "added at rest, turning with the joint above, and written without (the joint below takes the turn "
-            "the output gives it)",
+            f"note: {what}: it lacks the model's {_listed(lacking)}: read with {them} added at rest, unturned, "
+            f"and written without {them}"
+            + (" (the joints below an added one take its turn)" if above else ""),
             self._check_given(completed(motion.slice(0, 1), found), what),
             what,
         )
