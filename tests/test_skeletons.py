@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from elastyle import SkeletonMismatchError, read_bvh, write_bvh
+from elastyle import RestPoseError, SkeletonMismatchError, read_bvh, write_bvh
 from elastyle.core.body import find_limbs
 from elastyle.core.motion import Motion
 from elastyle.core.parts import body_parts
@@ -1326,6 +1326,9 @@ def test_rigs_without_some_of_the_models_joints_are_read_with_them_added(walk: M
         )
         with pytest.raises(SkeletonMismatchError, match=f"only in the model: {said}"):
             transfer(rig, walk)
+    # a toe-less rig whose arms rest too far otherwise is refused for that, not for its toes
+    with pytest.raises(RestPoseError, match="another rest pose"):
+        transfer(_without_toes(_arms_rested_at(clip, 120.0)), walk)
     kneeless = _without_middle(_unturned(clip, ("LowerLeg_L", "LowerLeg_R")), "LowerLeg_L")
     with pytest.raises(SkeletonMismatchError, match="only in the model: LowerLeg_L"):
         transfer(_without_middle(kneeless, "LowerLeg_R"), walk)

@@ -30,6 +30,10 @@ class SkeletonMismatchError(ElastyleError):
     """Two clips (or a clip and a model) whose skeletons differ."""
 
 
+class RestPoseError(SkeletonMismatchError):
+    """A clip of a model's joints (under its names or others) whose bones point too far otherwise at rest."""
+
+
 class ModelError(ElastyleError):
     """A model file that is missing, truncated, foreign or of another format version."""
 

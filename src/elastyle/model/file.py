@@ -30,7 +30,7 @@ from elastyle.core.rest_frames import AXIS_TURNS, frames_reposed, frames_turned,
 from elastyle.core.roots import with_added_roots, without_added_roots
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import smooth
-from elastyle.errors import ModelError, SkeletonMismatchError
+from elastyle.errors import ModelError, RestPoseError, SkeletonMismatchError
 from elastyle.io.files import input_problem, write_bytes_atomic
 from elastyle.model.autoencoder import Autoencoder, AutoencoderWeights
 from elastyle.model.config import ModelConfig
@@ -247,7 +247,11 @@ class StyleModel:
         and how to get a model for it."""
         found = self.completion(motion)
         if found is None:
-            return self._check_given(motion, what)
+            try:
+                return self._check_given(motion, what)
+            except SkeletonMismatchError:
+                self._raise_rest_pose_of_completed(motion, what)
+                raise
         lacking, them = list(found.names), "it" if len(found.names) == 1 else "them"
         above = any(found.skeleton.children(joint) for joint in found.added.tolist())
         return _also(
@@ -257,6 +261,19 @@ class StyleModel:
             self._check_given(completed(motion.slice(0, 1), found), what),
             what,
         )
+
+    def _raise_rest_pose_of_completed(self, motion: Motion, what: str) -> None:
+        """The rest pose's error of a clip that lacks some of the model's joints (`core.missing_joints`) and
+        whose bones, with them added, point too far otherwise at rest: that, not the joints, is why it is
+        refused."""
+        found = completion(self.skeleton, motion.skeleton)
+        if found is not None:
+            try:
+                self._check_given(completed(motion.slice(0, 1), found), what)
+            except RestPoseError as error:
+                raise error from None
+            except SkeletonMismatchError:
+                pass
 
     def _check_given(self, motion: Motion, what: str) -> str | None:
         """`check_clip` for a clip with every model joint."""
@@ -413,10 +430,10 @@ def _once_per_skeleton(
     return known[motion.skeleton][0]
 
 
-def _rest_pose_error(what: str, skeleton: str) -> SkeletonMismatchError:
+def _rest_pose_error(what: str, skeleton: str) -> RestPoseError:
     """The error for a clip of the model's hierarchy (`skeleton` says how: its joints, under other names)
     whose bones point other ways at rest."""
-    return SkeletonMismatchError(
+    return RestPoseError(
         f"{what}: {skeleton}, but another rest pose (its bones point other ways at rest, so its rotations mean "
         "other poses): export it in the model's rest pose, or train a model on its clips with 'elastyle train "
         "CLIPS -o model.npz --recipe shipped --minutes 20' and pass it with --model"
