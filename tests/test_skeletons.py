@@ -1332,3 +1332,55 @@ def test_rigs_without_some_of_the_models_joints_are_read_with_them_added(walk: M
     kneeless = _without_middle(_unturned(clip, ("LowerLeg_L", "LowerLeg_R")), "LowerLeg_L")
     with pytest.raises(SkeletonMismatchError, match="only in the model: LowerLeg_L"):
         transfer(_without_middle(kneeless, "LowerLeg_R"), walk)
+
+
+def _standing_rest(motion: Motion, standing: Motion, arms_raised_degrees: float) -> Motion:
+    """The clip on a rest pose that stands as most rigs' do, its joints' frames the world's there: the rest is
+    a real standing frame (`standing`'s first, turned to face +Z), its arms raised about the forward axis by
+    `arms_raised_degrees` (85: a T-pose); the same world motion."""
+    from elastyle.core.rest_frames import frames_reposed
+    from elastyle.core.rotations import to_matrix
+
+    skeleton = motion.skeleton
+    rest = standing.world()[0][0]  # (J, 3, 3) the model's world rotations of a body standing
+    facing = rest[skeleton.pelvis] @ np.array([0.0, 0.0, 1.0])
+    rest = to_matrix(np.array([0.0, -np.arctan2(facing[0], facing[2]), 0.0])) @ rest
+    for side, sign in (("L", 1.0), ("R", -1.0)):
+        raise_arm = to_matrix(np.array([0.0, 0.0, sign * np.radians(arms_raised_degrees)]))
+        for name in ("UpperArm_", "LowerArm_", "Hand_"):
+            joint = skeleton.index(name + side)
+            rest[joint] = raise_arm @ rest[joint]
+    return frames_reposed(motion, rest, inverse=True)
+
+
+@pytest.mark.parametrize("arms_raised", [0.0, 85.0])
+def test_a_rig_whose_rest_stands_is_read_from_the_models_typical_pose(
+    walk: Motion, dataset_clips: list[ClipRef], arms_raised: float
+) -> None:
+    """Most rigs rest standing, arms down or in a T, their joints' frames the world's there; the model's
+    rest lies along X. The least turn onto the model's bones read such a rig's chest 129 degrees off, and it
+    was refused ("another rest pose"). Each joint's frame is now found from the model's typical pose (its
+    training clips' mean), turned onto the rig's bones: the trunk and legs read within a few degrees of the
+    model's own rig (the twist of an arm about itself, which no rest tells, less well), the transfer keeps
+    the content at strength 0, and the model reproduces the clip about as well as the model's own rig."""
+    from elastyle import transfer
+    from elastyle.core.rest_frames import rest_degrees
+    from elastyle.core.rotations import to_matrix
+    from elastyle.model.depth import clip_depth
+
+    model = load_model()
+    standing = clip_named(dataset_clips, "dataset-2_raise-up-both-hands_normal_005").read()[0]
+    rig = _standing_rest(walk, standing, arms_raised)
+    assert rig.skeleton.rest_positions()[rig.skeleton.index("Head"), 1] > 100  # it stands, head up
+    read = model.on_model_hierarchy(rig)
+    turns = np.einsum("tjab,tjcb->tjac", to_matrix(read.rotations), to_matrix(walk.rotations))
+    degrees = rest_degrees(turns.reshape(-1, 3, 3)).reshape(turns.shape[:2]).mean(axis=0)  # (J,)
+    trunk_and_legs = [
+        walk.skeleton.index(name) for name in walk.skeleton.names if "Arm" not in name and "Hand" not in name
+    ]
+    assert degrees[trunk_and_legs].max() < 12.0, degrees
+    assert clip_depth(model, rig, "rig")[0] < 2 * clip_depth(model, walk, "walk")[0] + 0.2
+    result = transfer(rig.slice(0, 90), walk)
+    assert any("its rest pose differs from the model's" in note for note in result.explain["notes"])
+    unstyled = transfer(rig.slice(0, 90), walk, strength=0).motion
+    np.testing.assert_allclose(unstyled.positions(), rig.slice(0, 90).positions(), atol=1e-4)

@@ -13,8 +13,10 @@ import itertools
 
 import numpy as np
 
+from elastyle.core.body import find_limbs
 from elastyle.core.joint_tree import folded_joints
 from elastyle.core.motion import Motion
+from elastyle.core.parts import subtree
 from elastyle.core.rotations import from_matrix, to_matrix
 from elastyle.core.skeleton import Skeleton
 from elastyle.types import FloatArray, IntArray
@@ -80,6 +82,52 @@ def rest_rotations(clip: Skeleton, reference: Skeleton, joints: IntArray, first:
     for joint in folded_joints(clip, joints):
         rest[joint] = rest[clip.parents[joint]]
     return rest
+
+
+def rest_rotations_from_pose(
+    clip: Skeleton, reference: Skeleton, joints: IntArray, pose: FloatArray, first: int = 0
+) -> tuple[FloatArray, FloatArray]:
+    """`rest_rotations` for a clip whose rest stands as a body does (a T- or an A-pose, its joints' frames the
+    world's, as most rigs are exported): per clip joint, D starts from the reference joint's world rotation in
+    a typical pose of the reference's (`pose`, (J_ref, 3, 3): where its bones point and how they twist about
+    themselves), the whole body turned by the turn that best takes that pose's trunk and legs onto the clip's
+    rest (its facing and up axis), then as its parent's was (an arm raised to a T raises the forearm and the
+    hand), then by the turn that best takes the joint's bones below it there onto the clip's. Returns the
+    rotations (J, 3, 3) and, per clip joint, how far that last turn goes (J,) in degrees (0 for joints it
+    does not turn)."""
+    rest = np.broadcast_to(np.eye(3), (clip.num_joints, 3, 3)).copy()
+    degrees = np.zeros(clip.num_joints)
+    trunk_and_legs = set(range(reference.num_joints))
+    for arm in find_limbs(reference).arm_roots.tolist():
+        trunk_and_legs -= set(subtree(reference, arm))
+
+    def pairs_of(ours: int, theirs: int, turn: FloatArray) -> list[tuple[FloatArray, FloatArray]]:
+        kids = [k for k in reference.children(ours) if k > max(first, reference.pelvis)]
+        found = [(turn @ reference.offsets[k], clip.offset_from(theirs, joints[k - first])) for k in kids]
+        if not kids and not (np.isnan(reference.end_sites[ours, 0]) or np.isnan(clip.end_sites[theirs, 0])):
+            found = [(turn @ reference.end_sites[ours], clip.end_sites[theirs])]
+        return [(a, b) for a, b in found if np.linalg.norm(a) > 1e-9 and np.linalg.norm(b) > 1e-9]
+
+    matched = list(zip(range(first, reference.num_joints), joints.tolist()))
+    body = [
+        pair
+        for ours, theirs in matched
+        if ours in trunk_and_legs
+        for pair in pairs_of(ours, theirs, pose[ours])
+    ]
+    whole = best_rotation(*(np.array(side) for side in zip(*body))) if len(body) >= 2 else np.eye(3)
+    turns: dict[int, FloatArray] = {}  # per reference joint, its turn from the pose, its parent's included
+    for ours, theirs in matched:
+        # turned as its parent first (a forearm on an arm raised to a T), then as its own bones ask
+        posed = turns.get(int(reference.parents[ours]), np.eye(3)) @ whole @ pose[ours]
+        pairs = pairs_of(ours, theirs, posed)
+        own = best_rotation(*(np.array(side) for side in zip(*pairs))) if pairs else np.eye(3)
+        rest[theirs] = own @ posed
+        turns[ours] = rest[theirs] @ (whole @ pose[ours]).T
+        degrees[theirs] = rest_degrees(own[None])[0]
+    for joint in folded_joints(clip, joints):
+        rest[joint] = rest[clip.parents[joint]]
+    return rest, degrees
 
 
 def best_rotation(sources: FloatArray, targets: FloatArray) -> FloatArray:

@@ -26,9 +26,16 @@ from elastyle.core.ground import floor_gap, has_feet, raised
 from elastyle.core.joint_tree import folded_joints
 from elastyle.core.missing_joints import Completion, completed, completion, uncompleted
 from elastyle.core.motion import Motion
-from elastyle.core.rest_frames import AXIS_TURNS, frames_reposed, frames_turned, rest_degrees, rest_rotations
+from elastyle.core.rest_frames import (
+    AXIS_TURNS,
+    frames_reposed,
+    frames_turned,
+    rest_degrees,
+    rest_rotations,
+    rest_rotations_from_pose,
+)
 from elastyle.core.roots import with_added_roots, without_added_roots
-from elastyle.core.skeleton import Skeleton
+from elastyle.core.skeleton import Skeleton, forward_kinematics
 from elastyle.core.smoothing import smooth
 from elastyle.errors import ModelError, RestPoseError, SkeletonMismatchError
 from elastyle.io.files import input_problem, write_bytes_atomic
@@ -172,6 +179,13 @@ class StyleModel:
         except SkeletonMismatchError:
             return None
 
+    @cached_property
+    def typical_pose(self) -> FloatArray:
+        """World rotations (J, 3, 3) of the model's joints in its typical pose: each joint at its mean rotation
+        over the training clips (`FeatureSpec.reference_rotations`; the pelvis's relative to the heading)."""
+        rotations = self.features.reference_rotations[None]  # (1, J, 3)
+        return forward_kinematics(self.skeleton, rotations, self.skeleton.offsets[None])[0][0]
+
     def rest_turn(self, motion: Motion) -> FloatArray | None:
         """The turn (3, 3) of every joint's axes under which the model reads a clip it does not read as it
         is (`core.rest_frames`: an exporter's own axes); None where it reads it as it is, or under no turn.
@@ -197,13 +211,25 @@ class StyleModel:
         if mapped is None:
             return None
         rest = rest_rotations(motion.skeleton, self.skeleton, *mapped)
-        if not REPOSE_DEGREES < rest_degrees(rest).max() <= REPOSE_MOST_DEGREES:
-            return None
-        try:
-            self._check(frames_reposed(motion, rest), "clip")
-            return rest
-        except SkeletonMismatchError:
-            return None
+        turned = rest_degrees(rest)[mapped[0]]  # (J',) each model joint's match
+        if turned.max() <= REPOSE_DEGREES:
+            return None  # read as it is
+        # the rest turned from the model's, or from the model's typical pose where the rig stands at rest (a T-
+        # or an A-pose: bones that point another way from the model's each get their twist from that pose): the
+        # reading that turns the clip's joints least
+        readings = [(float(turned.sum()), rest)] if turned.max() <= REPOSE_MOST_DEGREES else []
+        posed, turns = rest_rotations_from_pose(
+            motion.skeleton, self.skeleton, mapped[0], self.typical_pose, mapped[1]
+        )
+        if turns[mapped[0]].max() <= POSED_MOST_DEGREES:
+            readings.append((float(turns[mapped[0]].sum()), posed))
+        for _, rest in sorted(readings, key=lambda reading: reading[0]):
+            try:
+                self._check(frames_reposed(motion, rest), "clip")
+                return rest
+            except SkeletonMismatchError:
+                continue
+        return None
 
     def _find_rest_turn(self, motion: Motion) -> FloatArray | None:
         try:
@@ -390,6 +416,9 @@ REPOSE_DEGREES = 2.0
 # its first frame, its chest 129 degrees off, was read with 24.5 cm mean joint error against 0.1); an A-pose's
 # arms turn about 45
 REPOSE_MOST_DEGREES = 90.0
+# ... and a rig that stands at rest is read from the model's typical pose where no joint turns further than this
+# from it (a T-pose's arms turn about 80 degrees from the typical pose's hanging ones)
+POSED_MOST_DEGREES = 120.0
 
 
 def _listed(names: list[str], most: int = 4) -> str:
