@@ -21,7 +21,7 @@ import numpy as np
 
 from elastyle.core.body import find_limbs
 from elastyle.core.motion import Motion
-from elastyle.core.parts import trunk
+from elastyle.core.parts import rest_pose_stands, trunk
 from elastyle.core.rest_frames import best_rotation
 from elastyle.core.rotations import multiply
 from elastyle.core.skeleton import Skeleton, bare_name
@@ -59,12 +59,13 @@ class _Missing:
     end_site: FloatArray
 
 
-def completion(model: Skeleton, clip: Skeleton) -> Completion | None:
+def completion(model: Skeleton, clip: Skeleton, pose: FloatArray | None = None) -> Completion | None:
     """The completion of a clip's skeleton with the model joints it lacks (`_by_name`, else `_toes_by_legs`),
-    or None where it lacks none this way."""
-    missing = _by_name(model, clip)
+    or None where it lacks none this way. pose: the model's typical pose (J_model, 3, 3) world rotations, which
+    places a toe on a rig that rests standing (`_placed`)."""
+    missing = _by_name(model, clip, pose)
     if missing is None and not _named_mostly(model, clip):  # else the names tell what it lacks
-        missing = _toes_by_legs(model, clip)
+        missing = _toes_by_legs(model, clip, pose)
     return None if not missing else _completed_skeleton(clip, missing)
 
 
@@ -97,7 +98,7 @@ def _depth(skeleton: Skeleton, joint: int) -> int:
     return max((1 + _depth(skeleton, child) for child in skeleton.children(joint)), default=0)
 
 
-def _by_name(model: Skeleton, clip: Skeleton) -> list[_Missing] | None:
+def _by_name(model: Skeleton, clip: Skeleton, pose: FloatArray | None) -> list[_Missing] | None:
     """The model's joints missing from a clip that has the others under their names (exactly, or without
     namespaces): each an `optional_joints` one whose parent and every child the clip has, the children
     directly below the parent; None where the names tell no such thing."""
@@ -123,13 +124,13 @@ def _by_name(model: Skeleton, clip: Skeleton) -> list[_Missing] | None:
             clip_children = [int(c) for c in children if c is not None]
             if any(int(clip.parents[child]) != clip_parent for child in clip_children):
                 break
-            missing.append(_placed(model, clip, joint, clip_parent, clip_children, model.names[joint]))
+            missing.append(_placed(model, clip, joint, clip_parent, clip_children, model.names[joint], pose))
         else:
             return missing
     return None
 
 
-def _toes_by_legs(model: Skeleton, clip: Skeleton) -> list[_Missing] | None:
+def _toes_by_legs(model: Skeleton, clip: Skeleton, pose: FloatArray | None) -> list[_Missing] | None:
     """Toe joints below the ankles of a clip's legs that end there, where the model's legs go on to a toe
     joint (`optional_joints`), each leg paired with the model's whose rest direction from the pelvis is most
     alike (`core.body.find_limbs`); None for any other clip."""
@@ -159,18 +160,26 @@ def _toes_by_legs(model: Skeleton, clip: Skeleton) -> list[_Missing] | None:
         name = clip.names[ankle] + TOE_SUFFIX
         if toe not in optional or name in clip.names:
             return None
-        missing.append(_placed(model, clip, toe, ankle, [], name))
+        missing.append(_placed(model, clip, toe, ankle, [], name, pose))
     return missing or None
 
 
 def _placed(
-    model: Skeleton, clip: Skeleton, joint: int, parent: int, children: list[int], name: str
+    model: Skeleton,
+    clip: Skeleton,
+    joint: int,
+    parent: int,
+    children: list[int],
+    name: str,
+    pose: FloatArray | None = None,
 ) -> _Missing:
     """The model's `joint` placed in the clip below the clip joint `parent`, above `children` (its model
     children's clip joints). Above children: the model's place for it from its parent, turned by the turn
     that best takes the model's bones from the parent to the children onto the clip's and scaled by their
     lengths. An end joint (a toe): along its parent's End Site where the clip has one, else the model's
-    direction turned as the parents' bones are; as long as the model's in proportion to the parents' bones."""
+    direction turned as the parents' bones are (on a rig that rests standing, `core.parts.rest_pose_stands`,
+    the direction in the model's typical pose `pose` so turned: a foot's toe points forward, where the
+    model's rest lies along its shin); as long as the model's in proportion to the parents' bones."""
     model_parent = int(model.parents[joint])
     if children:
         model_bones = np.array([model.offsets[joint] + model.offsets[c] for c in model.children(joint)])
@@ -189,7 +198,10 @@ def _placed(
     ours, theirs = model.offsets[model_parent], clip.offsets[parent]
     known = float(np.linalg.norm(ours)) > 0 and float(np.linalg.norm(theirs)) > 0
     scale = float(np.linalg.norm(theirs) / np.linalg.norm(ours)) if known else 1.0
-    turn = best_rotation(ours[None], theirs[None]) if known else np.eye(3)
+    frame = np.eye(3)  # the parent's frame the model's offsets are read in: its rest's, or the typical pose's
+    if pose is not None and model_parent > 0 and rest_pose_stands(clip):
+        ours, frame = pose[int(model.parents[model_parent])] @ ours, pose[model_parent]
+    turn = (best_rotation(ours[None], theirs[None]) if known else np.eye(3)) @ frame
     offset = scale * turn @ model.offsets[joint]
     tip = clip.end_sites[parent]
     if np.all(np.isfinite(tip)) and np.linalg.norm(tip) > 0:

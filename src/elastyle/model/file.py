@@ -170,7 +170,7 @@ class StyleModel:
             return None
         except SkeletonMismatchError:
             pass
-        found = completion(self.skeleton, motion.skeleton)
+        found = completion(self.skeleton, motion.skeleton, self.typical_pose)
         if found is None:
             return None
         try:
@@ -292,7 +292,7 @@ class StyleModel:
         """The rest pose's error of a clip that lacks some of the model's joints (`core.missing_joints`) and
         whose bones, with them added, point too far otherwise at rest: that, not the joints, is why it is
         refused."""
-        found = completion(self.skeleton, motion.skeleton)
+        found = completion(self.skeleton, motion.skeleton, self.typical_pose)
         if found is not None:
             try:
                 self._check_given(completed(motion.slice(0, 1), found), what)
