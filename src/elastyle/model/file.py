@@ -16,7 +16,7 @@ from dataclasses import asdict, dataclass, field
 from functools import cached_property
 from io import BytesIO
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, NamedTuple, TypeVar
 
 import numpy as np
 
@@ -26,6 +26,7 @@ from elastyle.core.ground import floor_gap, has_feet, raised
 from elastyle.core.joint_tree import folded_joints
 from elastyle.core.missing_joints import Completion, completed, completion, uncompleted
 from elastyle.core.motion import Motion
+from elastyle.core.parts import rest_pose_stands
 from elastyle.core.rest_frames import (
     AXIS_TURNS,
     frames_reposed,
@@ -186,6 +187,15 @@ class StyleModel:
         rotations = self.features.reference_rotations[None]  # (1, J, 3)
         return forward_kinematics(self.skeleton, rotations, self.skeleton.offsets[None])[0][0]
 
+    @cached_property
+    def standing_skeleton(self) -> Skeleton:
+        """The model's skeleton resting in its typical pose (`typical_pose`): its bones as they point there, in
+        the world's frame, as a rig that rests standing has them."""
+        rest = Motion(
+            self.skeleton, np.zeros((1, self.skeleton.num_joints, 3)), self.skeleton.offsets[None], self.fps
+        )
+        return frames_reposed(rest, self.typical_pose, inverse=True).skeleton
+
     def rest_turn(self, motion: Motion) -> FloatArray | None:
         """The turn (3, 3) of every joint's axes under which the model reads a clip it does not read as it
         is (`core.rest_frames`: an exporter's own axes); None where it reads it as it is, or under no turn.
@@ -198,16 +208,25 @@ class StyleModel:
         the same world motion; None where the clip's bones point as the model's (within `REPOSE_DEGREES`) or
         too far otherwise (`REPOSE_MOST_DEGREES`), where an axis turn reads it, or where re-posing does not make
         it readable. Found once per clip skeleton."""
-        return _once_per_skeleton(_REST_POSES, self.skeleton, motion, self._find_rest_pose)
+        reading = _once_per_skeleton(_REST_POSES, self.skeleton, motion, self._find_rest_pose)
+        return None if reading is None else reading.turns
 
-    def _find_rest_pose(self, motion: Motion) -> FloatArray | None:
+    def rest_from_typical_pose(self, motion: Motion) -> bool:
+        """Whether `rest_pose` reads the clip from the model's typical pose (a rig that rests standing)."""
+        reading = _once_per_skeleton(_REST_POSES, self.skeleton, motion, self._find_rest_pose)
+        return reading is not None and reading.from_pose
+
+    def _find_rest_pose(self, motion: Motion) -> _RestReading | None:
         if self.skeleton.same_as(motion.skeleton) and np.array_equal(
             self.skeleton.offsets, motion.skeleton.offsets
         ):
             return None
         if self.rest_turn(motion) is not None:
             return None
-        mapped = _model_joints(self.skeleton, motion.skeleton)
+        # a rig that rests standing is matched under other names against the model's skeleton in its typical
+        # pose: against its rest (bones along X), Mixamo's arms were paired with the other side's
+        reference = self.standing_skeleton if rest_pose_stands(motion.skeleton) else self.skeleton
+        mapped = _model_joints(reference, motion.skeleton)
         if mapped is None:
             return None
         rest = rest_rotations(motion.skeleton, self.skeleton, *mapped)
@@ -217,16 +236,18 @@ class StyleModel:
         # the rest turned from the model's, or from the model's typical pose where the rig stands at rest (a T-
         # or an A-pose: bones that point another way from the model's each get their twist from that pose): the
         # reading that turns the clip's joints least
-        readings = [(float(turned.sum()), rest)] if turned.max() <= REPOSE_MOST_DEGREES else []
+        readings = (
+            [(float(turned.sum()), _RestReading(rest, False))] if turned.max() <= REPOSE_MOST_DEGREES else []
+        )
         posed, turns = rest_rotations_from_pose(
             motion.skeleton, self.skeleton, mapped[0], self.typical_pose, mapped[1]
         )
         if turns[mapped[0]].max() <= POSED_MOST_DEGREES:
-            readings.append((float(turns[mapped[0]].sum()), posed))
-        for _, rest in sorted(readings, key=lambda reading: reading[0]):
+            readings.append((float(turns[mapped[0]].sum()), _RestReading(posed, True)))
+        for _, reading in sorted(readings, key=lambda reading: reading[0]):
             try:
-                self._check(frames_reposed(motion, rest), "clip")
-                return rest
+                self._check(frames_reposed(motion, reading.turns), "clip")
+                return reading
             except SkeletonMismatchError:
                 continue
         return None
@@ -306,10 +327,15 @@ class StyleModel:
         rest = self.rest_pose(motion)
         if rest is not None:
             degrees = rest_degrees(rest)
+            said = (
+                "it rests standing, where the model's rest does not: read re-posed from the model's typical pose "
+                "turned onto its bones (the twist of a bone about itself, which no rest tells, is that pose's)"
+                if self.rest_from_typical_pose(motion)
+                else f"its rest pose differs from the model's (its {motion.skeleton.names[int(np.argmax(degrees))]}'s "
+                f"bones turned {degrees.max():.0f} degrees): read re-posed onto the model's"
+            )
             return _also(
-                f"note: {what}: its rest pose differs from the model's (its {motion.skeleton.names[int(np.argmax(degrees))]}'s "
-                f"bones turned {degrees.max():.0f} degrees): read re-posed onto the model's, the same world motion, and "
-                "written back in its own",
+                f"note: {what}: {said}, the same world motion, and written back in its own",
                 self._check(frames_reposed(motion.slice(0, 1), rest), what),
                 what,
             )
@@ -443,7 +469,17 @@ def _model_joints(model: Skeleton, clip: Skeleton) -> tuple[IntArray, int] | Non
 # per model skeleton, per clip skeleton: a turn found for it once (`StyleModel.rest_turn`, `.rest_pose`)
 Found = TypeVar("Found")
 _PerSkeleton = weakref.WeakKeyDictionary[Skeleton, weakref.WeakKeyDictionary[Skeleton, tuple[Found | None]]]
-_REST_POSES: _PerSkeleton[FloatArray] = weakref.WeakKeyDictionary()  # the turns of its joints' frames
+
+
+class _RestReading(NamedTuple):
+    """How a clip's rest pose is read (`StyleModel.rest_pose`): the turns (J, 3, 3) of its joints' frames,
+    and whether they start from the model's typical pose."""
+
+    turns: FloatArray
+    from_pose: bool
+
+
+_REST_POSES: _PerSkeleton[_RestReading] = weakref.WeakKeyDictionary()  # the turns of its joints' frames
 _REST_TURNS: _PerSkeleton[FloatArray] = weakref.WeakKeyDictionary()  # the turn of its axes
 _COMPLETIONS: _PerSkeleton[Completion] = weakref.WeakKeyDictionary()  # the model's joints it lacks
 
