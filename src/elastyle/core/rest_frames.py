@@ -71,11 +71,7 @@ def rest_rotations(clip: Skeleton, reference: Skeleton, joints: IntArray, first:
     joint from `first` on (`core.extra_joints.model_joints_in`)."""
     rest = np.broadcast_to(np.eye(3), (clip.num_joints, 3, 3)).copy()
     for ours, theirs in zip(range(first, reference.num_joints), joints.tolist()):
-        kids = [k for k in reference.children(ours) if k > max(first, reference.pelvis)]
-        pairs = [(reference.offsets[k], clip.offset_from(theirs, joints[k - first])) for k in kids]
-        if not kids and not (np.isnan(reference.end_sites[ours, 0]) or np.isnan(clip.end_sites[theirs, 0])):
-            pairs = [(reference.end_sites[ours], clip.end_sites[theirs])]
-        pairs = [(a, b) for a, b in pairs if np.linalg.norm(a) > 1e-9 and np.linalg.norm(b) > 1e-9]
+        pairs = _bone_pairs(clip, reference, joints, first, ours, theirs, np.eye(3))
         if pairs:
             rest[theirs] = best_rotation(*(np.array(side) for side in zip(*pairs)))
     # top down: a chain read as one bone turns as the joint above it
@@ -102,11 +98,7 @@ def rest_rotations_from_pose(
         trunk_and_legs -= set(subtree(reference, arm))
 
     def pairs_of(ours: int, theirs: int, turn: FloatArray) -> list[tuple[FloatArray, FloatArray]]:
-        kids = [k for k in reference.children(ours) if k > max(first, reference.pelvis)]
-        found = [(turn @ reference.offsets[k], clip.offset_from(theirs, joints[k - first])) for k in kids]
-        if not kids and not (np.isnan(reference.end_sites[ours, 0]) or np.isnan(clip.end_sites[theirs, 0])):
-            found = [(turn @ reference.end_sites[ours], clip.end_sites[theirs])]
-        return [(a, b) for a, b in found if np.linalg.norm(a) > 1e-9 and np.linalg.norm(b) > 1e-9]
+        return _bone_pairs(clip, reference, joints, first, ours, theirs, turn)
 
     matched = list(zip(range(first, reference.num_joints), joints.tolist()))
     body = [
@@ -128,6 +120,25 @@ def rest_rotations_from_pose(
     for joint in folded_joints(clip, joints):
         rest[joint] = rest[clip.parents[joint]]
     return rest, degrees
+
+
+def _bone_pairs(
+    clip: Skeleton,
+    reference: Skeleton,
+    joints: IntArray,
+    first: int,
+    ours: int,
+    theirs: int,
+    turn: FloatArray,
+) -> list[tuple[FloatArray, FloatArray]]:
+    """The bones below the reference joint `ours`, turned by `turn` (3, 3), each with the clip's below its
+    match `theirs` (3,) and (3,) (the pelvis's and above's children aside: placed, not bones); its End Sites
+    where it has no children; bones of no length left out."""
+    kids = [k for k in reference.children(ours) if k > max(first, reference.pelvis)]
+    found = [(turn @ reference.offsets[k], clip.offset_from(theirs, joints[k - first])) for k in kids]
+    if not kids and not (np.isnan(reference.end_sites[ours, 0]) or np.isnan(clip.end_sites[theirs, 0])):
+        found = [(turn @ reference.end_sites[ours], clip.end_sites[theirs])]
+    return [(a, b) for a, b in found if np.linalg.norm(a) > 1e-9 and np.linalg.norm(b) > 1e-9]
 
 
 def best_rotation(sources: FloatArray, targets: FloatArray) -> FloatArray:

@@ -204,10 +204,12 @@ class StyleModel:
 
     def rest_pose(self, motion: Motion) -> FloatArray | None:
         """Per clip joint, the turn (J, 3, 3) of its frame under which the model reads a clip of its hierarchy
-        in another rest pose (`core.rest_frames.rest_rotations`: an A-pose's arms, bones set otherwise at rest),
-        the same world motion; None where the clip's bones point as the model's (within `REPOSE_DEGREES`) or
-        too far otherwise (`REPOSE_MOST_DEGREES`), where an axis turn reads it, or where re-posing does not make
-        it readable. Found once per clip skeleton."""
+        in another rest pose (`core.rest_frames.rest_rotations`: an A-pose's arms, bones set otherwise at rest;
+        or, for a rig that rests standing, `rest_rotations_from_pose` from the model's `typical_pose`: the
+        reading whose own turns add up least), the same world motion; None where the clip's bones point as the
+        model's (within `REPOSE_DEGREES`) or too far otherwise for both readings (`REPOSE_MOST_DEGREES`,
+        `POSED_MOST_DEGREES`), where an axis turn reads it, or where re-posing does not make it readable.
+        Found once per clip skeleton."""
         reading = _once_per_skeleton(_REST_POSES, self.skeleton, motion, self._find_rest_pose)
         return None if reading is None else reading.turns
 
