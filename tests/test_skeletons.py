@@ -1404,3 +1404,27 @@ def test_a_rig_whose_rest_stands_is_read_from_the_models_typical_pose(
     np.testing.assert_allclose(transfer(mixamo, walk).motion.positions(), result.motion.positions()[:, [
         rig.skeleton.index(name) for name in _reordered(rig, ("UpperLeg_L", "UpperLeg_R")).skeleton.names
     ]], atol=1e-6)  # fmt: skip
+
+
+def test_arms_raised_to_a_t_from_the_typical_pose_read_without_a_twist(walk: Motion) -> None:
+    """A rig resting in the model's typical pose with its arms raised sideways to a T (about the body's
+    forward axis): the least turn from the hanging arms onto the raised ones twisted the upper arms 26 to 28
+    degrees about themselves; turned about the forward axis first, they read within a few degrees."""
+    from elastyle.core.rest_frames import frames_reposed, rest_degrees
+    from elastyle.core.rotations import to_matrix
+
+    model = load_model()
+    rest = model.typical_pose.copy()  # (J, 3, 3), facing +Z
+    arms = [
+        walk.skeleton.index(f"{name}_{side}") for name in ("UpperArm", "LowerArm", "Hand") for side in "LR"
+    ]
+    for joint in arms:
+        side = 1.0 if walk.skeleton.names[joint].endswith("_L") else -1.0
+        rest[joint] = to_matrix(np.array([0.0, 0.0, side * np.radians(90.0)])) @ rest[joint]
+    rig = frames_reposed(walk.slice(0, 60), rest, inverse=True)
+    read = model.on_model_hierarchy(rig)
+    turns = np.einsum(
+        "tjab,tjcb->tjac", to_matrix(read.rotations[:, arms]), to_matrix(walk.slice(0, 60).rotations[:, arms])
+    )
+    degrees = rest_degrees(turns.reshape(-1, 3, 3)).reshape(turns.shape[:2]).mean(axis=0)
+    assert degrees.max() < 5.0, degrees

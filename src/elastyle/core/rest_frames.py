@@ -13,7 +13,7 @@ import itertools
 
 import numpy as np
 
-from elastyle.core.body import find_limbs
+from elastyle.core.body import find_limbs, pelvis_forward_local
 from elastyle.core.joint_tree import folded_joints
 from elastyle.core.motion import Motion
 from elastyle.core.parts import subtree
@@ -108,18 +108,45 @@ def rest_rotations_from_pose(
         for pair in pairs_of(ours, theirs, pose[ours])
     ]
     whole = best_rotation(*(np.array(side) for side in zip(*body))) if len(body) >= 2 else np.eye(3)
+    forward = whole @ pose[reference.pelvis] @ pelvis_forward_local(reference)  # (3,) the body's, in the clip
     turns: dict[int, FloatArray] = {}  # per reference joint, its turn from the pose, its parent's included
     for ours, theirs in matched:
         # turned as its parent first (a forearm on an arm raised to a T), then as its own bones ask
         posed = turns.get(int(reference.parents[ours]), np.eye(3)) @ whole @ pose[ours]
         pairs = pairs_of(ours, theirs, posed)
-        own = best_rotation(*(np.array(side) for side in zip(*pairs))) if pairs else np.eye(3)
+        own = _own_turn(pairs, forward) if pairs else np.eye(3)
         rest[theirs] = own @ posed
         turns[ours] = rest[theirs] @ (whole @ pose[ours]).T
         degrees[theirs] = rest_degrees(own[None])[0]
     for joint in folded_joints(clip, joints):
         rest[joint] = rest[clip.parents[joint]]
     return rest, degrees
+
+
+# a bone whose direction across the body's forward axis is at least this share of its length, and which turns
+# about that axis by at least `SWING_DEGREES` from the typical pose, turns about that axis first (an arm raised
+# sideways: the turn a T-pose makes), its least turn after that; otherwise at once
+ACROSS_SHARE = 0.3
+SWING_DEGREES = 20.0
+
+
+def _own_turn(pairs: list[tuple[FloatArray, FloatArray]], forward: FloatArray) -> FloatArray:
+    """The turn (3, 3) that best takes the bones of a joint in a typical pose (each pair's first) onto the
+    clip's (its second): for one bone that lies across the body's `forward` axis (3,) in both and turns far
+    about it, the turn about that axis that brings it into the clip's bone's plane first (the way an arm is
+    raised to a T, with no twist about itself), then the least turn; else the least turn, or the best fit for
+    several bones."""
+    if len(pairs) == 1:
+        ours, theirs = pairs[0]
+        axis = forward / np.linalg.norm(forward)
+        across = [bone - (bone @ axis) * axis for bone in (ours, theirs)]
+        sizes = [float(np.linalg.norm(bone)) for bone in (ours, theirs)]
+        if all(np.linalg.norm(a) >= ACROSS_SHARE * size for a, size in zip(across, sizes)):
+            angle = np.arctan2(float(np.cross(across[0], across[1]) @ axis), float(across[0] @ across[1]))
+            if abs(np.degrees(angle)) >= SWING_DEGREES:
+                swing = to_matrix(axis * angle)
+                return best_rotation((swing @ ours)[None], theirs[None]) @ swing
+    return best_rotation(*(np.array(side) for side in zip(*pairs)))
 
 
 def _bone_pairs(
