@@ -159,14 +159,8 @@ def test_joints_between_two_of_the_models_are_read_as_one_bone(walk: Motion) -> 
         np.testing.assert_allclose(unstyled.positions(), content.positions(), atol=1e-4)
 
 
-MIXAMO = {
-    "joint_Root": "Root", "Hips": "Hips", "Spine": "Spine", "Chest": "Spine2", "Neck": "Neck", "Head": "Head",
-    "Shoulder_L": "LeftShoulder", "UpperArm_L": "LeftArm", "LowerArm_L": "LeftForeArm", "Hand_L": "LeftHand",
-    "Shoulder_R": "RightShoulder", "UpperArm_R": "RightArm", "LowerArm_R": "RightForeArm", "Hand_R": "RightHand",
-    "UpperLeg_L": "LeftUpLeg", "LowerLeg_L": "LeftLeg", "Foot_L": "LeftFoot", "Toes_L": "LeftToeBase",
-    "UpperLeg_R": "RightUpLeg", "LowerLeg_R": "RightLeg", "Foot_R": "RightFoot", "Toes_R": "RightToeBase",
-    "Spine1": "Spine1",
-}  # fmt: skip
+# Mixamo's names are CMU's but for the spine (Spine, Spine1, Spine2 where CMU has LowerBack, Spine, Spine1)
+MIXAMO = {**CMU, "Spine": "Spine", "Chest": "Spine2", "Spine1": "Spine1"}
 
 
 def test_rigs_with_more_spine_and_neck_joints_under_other_names(walk: Motion, tmp_path: Path) -> None:
