@@ -347,7 +347,9 @@ def transfer(
             tracks, shares, part_tracks, content.skeleton, grid, content_time, positions, kept, "posture"
         )  # (N, J), read as the keep is
         _by_strength(posture, automatic, strength_out, config.decode)
-        target = keep_target(content_at, styled_at, reference, posture, strength_out, coloured_at, colour)
+        target = keep_target(
+            content_at, styled_at, reference, posture, strength_out, coloured_at, colour, keep
+        )
         motion = blend_by_strength(motion, target, keep)
         if config.cleanup and (coloured_at is not None or np.any(keep[:, automatic_legs] > 0)):
             # where the legs keep the content's stepping, the content's own contacts hold as well, and its

@@ -7,9 +7,10 @@ elsewhere (the legs and the spine, where the legs' travel and steps differ from 
 spine also where the head leans otherwise than theirs; each arm).
 Where the spine keeps the content's action it still takes the style's posture: the mean, over the frames
 it keeps within about ten seconds (`POSTURE_WINDOW_S`), of the change the style makes to the model's reading of
-it, scaled by the strength (so strength 0 stays the content). Where the legs keep it because the windows
-perform another action (another gait or none, not another path), they also take a share
-(`TransferConfig.kept_statistics`) of the change the style's statistics alone make to the model's reading
+it, scaled by the strength (so strength 0 stays the content); the arms that keep the content's action
+hang under it as they did (their hands where the content's are relative to the pelvis). Where the legs
+keep it because the windows perform another action (another gait or none, not another path), they also
+take a share (`TransferConfig.kept_statistics`) of the change the style's statistics alone make to the model's reading
 (the report's colouring of the content's latents): a walk given a run's style walks with the run's manner
 as far as statistics carry it. Parts that `--style-part` gives another library keep the content's action as
 that library's track decides.
@@ -21,10 +22,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from elastyle.core.body import find_limbs
 from elastyle.core.motion import Motion
 from elastyle.core.parts import body_parts, joint_set
-from elastyle.core.rotations import canonical_log, multiply, quat_multiply, to_quat
-from elastyle.core.skeleton import Skeleton
+from elastyle.core.rotations import canonical_log, from_matrix, multiply, quat_multiply, to_matrix, to_quat
+from elastyle.core.skeleton import Skeleton, forward_kinematics
 from elastyle.core.smoothing import smooth
 from elastyle.steps.timeline import on_output_frames
 from elastyle.steps.track import StyleTrack
@@ -131,6 +133,7 @@ def keep_target(
     strength: FloatArray,
     coloured: Motion | None = None,
     colour: FloatArray | None = None,
+    kept: FloatArray | None = None,
 ) -> Motion:
     """What the kept joints become (N frames): the content (read at the output frames), with the style's
     local mean posture, times the strength (N,), on the joints whose parts weigh one (the spine where it
@@ -141,7 +144,9 @@ def keep_target(
     (`keep_weights` of the tracks' posture field; 0 at the joints the user keeps as they are); coloured:
     the decoded clip of the content's latents coloured with the style's statistics (the report's whitening
     and colouring), at the same frames; colour (N, J), 0 to 1: the share of its
-    change to the model's reading (`statistics_weights` times `TransferConfig.kept_statistics`).
+    change to the model's reading (`statistics_weights` times `TransferConfig.kept_statistics`); kept
+    (N, J), 0 to 1: how far the output then takes this target at each joint (`keep_weights`; None: fully),
+    so the kept arms hang as they did under as much of the trunk's posture as the output takes.
     """
     acting = strength > 0  # strength 0 stays the content exactly
     scale = np.clip(strength[acting], 0.0, 1.0)[:, None, None]  # (A, 1, 1)
@@ -159,10 +164,43 @@ def keep_target(
         # a local mean backed by at least POSTURE_SUPPORT of weight: a few frames weighed near 0 (a bow's edges)
         # gave the whole change of a mean of their own, undoing the bow they lie beside
         mean_change = smooth(weight * change, sigma) / np.maximum(smooth(weight, sigma), POSTURE_SUPPORT)
-        rotations[np.ix_(acting, joints)] = multiply(
-            rotations[np.ix_(acting, joints)], scale * mean_change[acting]
-        )
+        change = scale * mean_change[acting]  # (A, P, 3)
+        bent = rotations.copy()
+        bent[np.ix_(acting, joints)] = multiply(bent[np.ix_(acting, joints)], change)
+        # the arms keep hanging as they did (their parts take no posture of their own): a trunk bent forward
+        # with the arms' local rotations kept swung a walk's hands 9 cm behind the body
+        roots = find_limbs(content.skeleton).arm_roots
+        if len(roots) and np.any(acting):
+            taken = rotations[acting]  # (A, J, 3) the trunk as far as the output takes its posture
+            share = 1.0 if kept is None else kept[np.ix_(acting, joints)][:, :, None]
+            taken[:, joints] = multiply(taken[:, joints], share * change)
+            moved = content.translations[acting]
+            hanging = _arms_hanging(content.skeleton, moved, rotations[acting], taken)  # (A, H, 3)
+            bent[np.ix_(acting, roots)] = multiply(bent[np.ix_(acting, roots)], hanging)
+        rotations = bent
     return Motion(content.skeleton, rotations, content.translations, content.fps)
+
+
+def _arms_hanging(
+    skeleton: Skeleton, translations: FloatArray, before: FloatArray, bent: FloatArray
+) -> FloatArray:
+    """(A, H, 3) exp maps: each arm root's local turn that swings its arm about it so that its hand keeps
+    its place relative to the pelvis in `before` (A, J, 3) local rotations (translations (A, J, 3)), where
+    `bent` (A, J, 3) has the trunk's posture changed, as far as the arm reaches: an arm that keeps the
+    content's action keeps it where `steps.arms` measures it (its hand relative to the pelvis)."""
+    limbs = find_limbs(skeleton)
+    roots, hands, pelvis = limbs.arm_roots, limbs.hands, skeleton.pelvis
+    was = forward_kinematics(skeleton, before, translations, np.append(hands, pelvis))[1]
+    turns, now = forward_kinematics(skeleton, bent, translations, hands)
+    # the content's hand place (relative to the pelvis, which the spine's posture leaves), from the bent root
+    wanted = was[:, hands] - was[:, [pelvis]] + now[:, [pelvis]] - now[:, roots]  # (N, H, 3)
+    reach = now[:, hands] - now[:, roots]  # (N, H, 3)
+    axis = np.cross(reach, wanted)
+    size = np.linalg.norm(axis, axis=-1, keepdims=True)
+    angle = np.arctan2(size, np.sum(reach * wanted, axis=-1, keepdims=True))
+    swing = to_matrix(axis / np.maximum(size, 1e-12) * angle)  # (N, H, 3, 3) in the world
+    own = turns[:, roots]  # (N, H, 3, 3) the roots' world rotations
+    return from_matrix(np.swapaxes(own, -1, -2) @ swing @ own)
 
 
 def _change(reference: Motion, changed: Motion, joints: IntArray) -> FloatArray:
