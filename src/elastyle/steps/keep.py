@@ -34,6 +34,7 @@ from elastyle.types import FloatArray, IntArray
 
 POSTURE_WINDOW_S = 10.0  # the style's posture is a local mean: Gaussian sigma, seconds
 POSTURE_SUPPORT = 0.1  # ... of the change over frames whose weights average at least this (less: scaled down)
+HANG_FROM_SHARE = 0.01  # kept arms hang under the trunk's posture where the output takes this much of each
 
 
 def keep_weights(
@@ -164,19 +165,24 @@ def keep_target(
         # a local mean backed by at least POSTURE_SUPPORT of weight: a few frames weighed near 0 (a bow's edges)
         # gave the whole change of a mean of their own, undoing the bow they lie beside
         mean_change = smooth(weight * change, sigma) / np.maximum(smooth(weight, sigma), POSTURE_SUPPORT)
-        change = scale * mean_change[acting]  # (A, P, 3)
+        change = np.zeros_like(rotations[:, joints])  # (N, P, 3)
+        change[acting] = scale * mean_change[acting]
         bent = rotations.copy()
-        bent[np.ix_(acting, joints)] = multiply(bent[np.ix_(acting, joints)], change)
+        bent[np.ix_(acting, joints)] = multiply(bent[np.ix_(acting, joints)], change[acting])
         # the arms keep hanging as they did (their parts take no posture of their own): a trunk bent forward
-        # with the arms' local rotations kept swung a walk's hands 9 cm behind the body
+        # with the arms' local rotations kept swung a walk's hands 9 cm behind the body. Only at the frames
+        # where the output takes both a kept arm and the trunk's posture, each at least `HANG_FROM_SHARE`
         roots = find_limbs(content.skeleton).arm_roots
-        if len(roots) and np.any(acting):
-            taken = rotations[acting]  # (A, J, 3) the trunk as far as the output takes its posture
-            share = 1.0 if kept is None else kept[np.ix_(acting, joints)][:, :, None]
-            taken[:, joints] = multiply(taken[:, joints], share * change)
-            moved = content.translations[acting]
-            hanging = _arms_hanging(content.skeleton, moved, rotations[acting], taken)  # (A, H, 3)
-            bent[np.ix_(acting, roots)] = multiply(bent[np.ix_(acting, roots)], hanging)
+        share = np.ones((len(rotations), len(joints))) if kept is None else kept[:, joints]  # (N, P)
+        hung = acting & (share.max(axis=1) >= HANG_FROM_SHARE)
+        if kept is not None and len(roots):
+            hung &= kept[:, roots].max(axis=1) >= HANG_FROM_SHARE
+        if len(roots) and np.any(hung):
+            taken = rotations[hung]  # (F, J, 3) the trunk as far as the output takes its posture
+            taken[:, joints] = multiply(taken[:, joints], share[hung][:, :, None] * change[hung])
+            moved = content.translations[hung]
+            hanging = _arms_hanging(content.skeleton, moved, rotations[hung], taken)  # (F, H, 3)
+            bent[np.ix_(hung, roots)] = multiply(bent[np.ix_(hung, roots)], hanging)
         rotations = bent
     return Motion(content.skeleton, rotations, content.translations, content.fps)
 
@@ -184,9 +190,9 @@ def keep_target(
 def _arms_hanging(
     skeleton: Skeleton, translations: FloatArray, before: FloatArray, bent: FloatArray
 ) -> FloatArray:
-    """(A, H, 3) exp maps: each arm root's local turn that swings its arm about it so that its hand keeps
-    its place relative to the pelvis in `before` (A, J, 3) local rotations (translations (A, J, 3)), where
-    `bent` (A, J, 3) has the trunk's posture changed, as far as the arm reaches: an arm that keeps the
+    """(F, H, 3) exp maps: each arm root's local turn that swings its arm about it so that its hand keeps
+    its place relative to the pelvis in `before` (F, J, 3) local rotations (translations (F, J, 3)), where
+    `bent` (F, J, 3) has the trunk's posture changed, as far as the arm reaches: an arm that keeps the
     content's action keeps it where `steps.arms` measures it (its hand relative to the pelvis)."""
     limbs = find_limbs(skeleton)
     roots, hands, pelvis = limbs.arm_roots, limbs.hands, skeleton.pelvis
