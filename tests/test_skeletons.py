@@ -471,7 +471,7 @@ def test_units_stated_on_the_command_line_override_the_guess(tmp_path: Path, wal
 
 @pytest.mark.parametrize("scheme", list(SCHEMES))
 def test_the_models_skeleton_under_other_names_transfers_as_it_does(
-    walk: Motion, dataset_clips: list[ClipRef], scheme: str
+    walk: Motion, dataset_clips: list[ClipRef], scheme: str, caplog: pytest.LogCaptureFixture
 ) -> None:
     from elastyle.pipeline import transfer
 
@@ -480,10 +480,19 @@ def test_the_models_skeleton_under_other_names_transfers_as_it_does(
     # even without side names the style's mirror joins the library: the model reads the clip joint by
     # joint, so its joints pair by the model's names (before, such a style went without its mirror)
     own = transfer(walk, style, model=model).motion
-    renamed = transfer(_renamed(walk, scheme), _renamed(style, scheme), model=model)
+    with caplog.at_level("WARNING", logger="elastyle"):
+        renamed = transfer(
+            _renamed(walk, scheme), _renamed(style, scheme), model=model, style_names=["proud.bvh"]
+        )
     assert renamed.motion.skeleton.names == _renamed(walk, scheme).skeleton.names  # on the clip's own names
     np.testing.assert_allclose(renamed.motion.positions(), own.positions(), atol=1e-6)
     assert any("joint names differ from the model's" in note for note in renamed.explain["notes"])
+    # the style clip's reading is said too, as the command line says it
+    assert any(
+        r.getMessage().startswith("note: proud.bvh:")
+        and "joint names differ from the model's" in r.getMessage()
+        for r in caplog.records
+    )
 
 
 @pytest.mark.parametrize("scheme", ["cmu"])

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from elastyle.core.body import guessed_unit_note
 from elastyle.core.mirror import ONE_SIDED_DEGREES, asymmetry, mirror
 from elastyle.core.motion import Motion, check_finite_clip, leading_pose_note
 from elastyle.core.threads import one_blas_thread
@@ -234,12 +235,15 @@ def as_library(
             f"{style!r:.60}"
         )
     motions = [style] if isinstance(style, Motion) else list(style)
-    if names is None or len(names) == len(motions):
-        for name, motion in zip(_named_clips(names, len(motions)), motions):
-            note = leading_pose_note(motion, name) if isinstance(motion, Motion) else None
-            if note is not None:  # said here: a prepared library's clips had it said where they were read
+    library = prepare_style(model, motions, names, mirror_style, reverse_style)
+    # how each clip is read, said as a content's is (a prepared library's clips had it said where they were
+    # read: `steps.cache.load_library`)
+    for name, motion in zip(_named_clips(names, len(motions)), motions):
+        unit_note = guessed_unit_note(motion.skeleton, name)
+        for note in (leading_pose_note(motion, name), model.check_clip(motion, name), unit_note):
+            if note is not None:
                 log.warning("%s", note)
-    return prepare_style(model, motions, names, mirror_style, reverse_style)
+    return library
 
 
 def _named_clips(names: Sequence[str] | None, count: int) -> list[str]:
