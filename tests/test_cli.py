@@ -111,6 +111,27 @@ def test_transfer_writes_bvh_and_explain(walk: str, style: str, tmp_path: Path, 
     assert (record["output_frames"], record["output_fps"]) == (written.num_frames, written.fps)
 
 
+def test_how_a_style_clip_is_read_is_said_and_recorded(
+    walk: str, style: str, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A style clip under other joint names: the note on its reading is printed once and is in the explain
+    record, from a fresh library and from the cache alike."""
+    motion = read_bvh(style)[0]
+    renamed = tmp_path / "renamed style.bvh"
+    write_bvh(renamed, motion.renamed([f"bone{j}" for j in range(motion.skeleton.num_joints)]))
+    for run in range(2):  # encoded, then read from the cache
+        explain = tmp_path / f"run{run}.json"
+        caplog.clear()
+        with caplog.at_level("WARNING", logger="elastyle"):
+            command = ["transfer", walk, "--style", str(renamed), "-o", str(tmp_path / f"run{run}.bvh")]
+            assert main([*command, "--explain", str(explain)]) == 0
+        said = [r.getMessage() for r in caplog.records if r.getMessage().startswith(f"note: {renamed}:")]
+        assert len(said) == 1 and "joint names differ from the model's" in said[0]
+        assert said == [
+            n for n in json.loads(explain.read_text())["notes"] if n.startswith(f"note: {renamed}:")
+        ]
+
+
 def test_transfer_batch_into_folder(
     walk: str, style: str, dataset_clips: list[ClipRef], tmp_path: Path
 ) -> None:

@@ -195,6 +195,9 @@ def transfer(
          as_library(model, part_style, None, config.mirror_style, config.reverse_style))
         for names, part_style in (part_styles or {}).items()
     ]  # fmt: skip
+    # how the style clips were read, said as they were (`as_library`, `steps.cache.load_library`), recorded
+    for library in [*libraries, *(part_library for _, part_library in by_part)]:
+        notes += [note for note in library.notes if note not in notes]
     styled_joints = np.concatenate([joints for joints, _ in by_part]) if by_part else np.zeros(0, np.int64)
     if len(joint_set(styled_joints)) < len(styled_joints):
         raise ConfigError(

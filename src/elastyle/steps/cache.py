@@ -12,6 +12,7 @@ import hashlib
 import logging
 import os
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -98,7 +99,7 @@ def load_library(
             log.debug("style library from cache %s", path)
             _say(notes)
             os.utime(path)  # recently used: kept longest when the cache is pruned
-            return library
+            return replace(library, notes=tuple(text for _, text in notes))
         except Exception:  # empty, cut short or garbled in any way: only a cache, so a miss
             log.debug("unreadable cache entry %s: encoding again", path)
     motions = [clip.read()[0] for clip in clips]
@@ -124,7 +125,7 @@ def load_library(
             prune_cache(path.parent, cache_limit_bytes(), keep=path)
         except (OSError, OutputError) as error:  # a read-only home is no reason to fail a transfer
             _cannot_cache(path.parent, error)
-    return library
+    return replace(library, notes=tuple(text for _, text in notes))
 
 
 _WARNED_CACHE: set[Path] = set()  # the cache folders said to be unwritable in this process

@@ -9,7 +9,7 @@ from __future__ import annotations
 import logging
 import os
 from collections.abc import Callable, Hashable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -45,7 +45,9 @@ class StyleLibrary:
     frames, latents (N, Z) and action descriptors (N, A) (`steps.action`) end to end, and the latents'
     pooled statistics; model: the model that encoded them (a transfer uses it unless told another);
     one_sided: per clip (K,), where its manner is held to one side, the joint that shows it most and by how
-    many degrees its direction differs from the mirror's (`core.mirror.asymmetry`), else None."""
+    many degrees its direction differs from the mirror's (`core.mirror.asymmetry`), else None; notes: how
+    its clips were read (another naming, another rest pose, a guessed unit...), said when they were read
+    and kept in each transfer's explain record."""
 
     names: list[str]
     mirrored: list[bool]
@@ -56,6 +58,7 @@ class StyleLibrary:
     backwards: list[bool] = field(default_factory=list)
     model: StyleModel | None = None
     one_sided: list[tuple[str, float] | None] = field(default_factory=list)
+    notes: tuple[str, ...] = ()
 
     def __repr__(self) -> str:  # its arrays are the whole library: a summary, not kilobytes of numbers
         clips = ", ".join(dict.fromkeys(self.names))
@@ -238,12 +241,14 @@ def as_library(
     library = prepare_style(model, motions, names, mirror_style, reverse_style)
     # how each clip is read, said as a content's is (a prepared library's clips had it said where they were
     # read: `steps.cache.load_library`)
+    notes = []
     for name, motion in zip(_named_clips(names, len(motions)), motions):
         unit_note = guessed_unit_note(motion.skeleton, name)
         for note in (leading_pose_note(motion, name), model.check_clip(motion, name), unit_note):
             if note is not None:
                 log.warning("%s", note)
-    return library
+                notes.append(note)
+    return replace(library, notes=tuple(notes))
 
 
 def _named_clips(names: Sequence[str] | None, count: int) -> list[str]:
