@@ -337,7 +337,11 @@ def test_raised_hands_given_a_slow_waves_style_hold_still_at_the_top(
         return float(np.mean(speed[high]))
 
     out = transfer(raise_up, wave, model=model).motion
-    assert raised_hands_speed(out) < 2 * raised_hands_speed(raise_up)
+    # 1.6 times the content's when the kept arms kept their local rotations, 2.1 since they hang from the
+    # output's trunk and pelvis (`steps.keep.arms_hanging`): at the top the arms keep 0.65 to 0.8 of the
+    # raise, and the share, varying, moves them between the wave's arm and the raise's hung from the wave's
+    # trunk, further apart than the raise's own local rotations were
+    assert raised_hands_speed(out) < 2.3 * raised_hands_speed(raise_up)
 
 
 def test_the_arms_of_a_walk_given_a_walks_style_are_swapped(model, clips: dict[str, Motion]) -> None:  # type: ignore[no-untyped-def]
@@ -947,3 +951,23 @@ def test_kept_arms_hang_as_the_contents_under_a_trunk_bent_forward(
     assert bent[0, 2] > 4.0  # the head forward with the style's trunk
     shift = _in_body_frame_cm(result.motion, hands) - _in_body_frame_cm(walk, hands)  # (H, 3)
     assert np.all(np.abs(shift) < 2.0)
+
+
+def test_kept_arms_hang_on_the_pelvis_the_output_takes_and_an_arm_the_user_keeps_stays_the_contents(
+    model, dataset_clips: list[ClipRef]
+) -> None:  # type: ignore[no-untyped-def]
+    """A one-handed raise given a two-handed wave's style: the legs stand as both clips do and take the
+    style's pelvis, the arms keep the raise's action (neither waves). Its raised hand stays where the
+    raise's is relative to the pelvis (11.5 cm off where the kept arms hung from the content's pelvis).
+    An arm the user keeps is the content's, to the last bit, clavicle included."""
+    raise_up = clip_named(dataset_clips, "dataset-2_raise-up-right-hand_exhausted_005").read()[0]
+    style = clip_named(dataset_clips, "dataset-2_wave-both-hands_youthful_005").read()[0]
+    result = transfer(raise_up, style, model=model)
+    patches = result.explain["styles"][0]["patches"]
+    assert all(p["parts"][arm]["content_share"] == 1.0 for p in patches for arm in ("left-arm", "right-arm"))
+    hands = find_limbs(raise_up.skeleton).hands
+    shift = _in_body_frame_cm(result.motion, hands) - _in_body_frame_cm(raise_up, hands)  # (H, 3)
+    assert np.linalg.norm(shift, axis=1).max() < 3.0
+    kept = transfer(raise_up, style, model=model, keep_part="left-arm", timing="content").motion
+    arm = body_parts(raise_up.skeleton)["left-arm"]
+    np.testing.assert_array_equal(kept.rotations[:, arm], raise_up.rotations[:, arm])

@@ -63,7 +63,13 @@ from elastyle.steps.decode import (
     output_frames,
 )
 from elastyle.steps.explain import explain
-from elastyle.steps.keep import fallback_weights, keep_target, keep_weights, statistics_weights
+from elastyle.steps.keep import (
+    arms_hanging,
+    fallback_weights,
+    keep_target,
+    keep_weights,
+    statistics_weights,
+)
 from elastyle.steps.library import StyleLibrary, as_library
 from elastyle.steps.schedule import Schedule
 from elastyle.steps.timeline import content_grid, mix_tracks, on_output_frames, output_content_times
@@ -350,9 +356,8 @@ def transfer(
             tracks, shares, part_tracks, content.skeleton, grid, content_time, positions, kept, "posture"
         )  # (N, J), read as the keep is
         _by_strength(posture, automatic, strength_out, config.decode)
-        target = keep_target(
-            content_at, styled_at, reference, posture, strength_out, coloured_at, colour, keep
-        )
+        target = keep_target(content_at, styled_at, reference, posture, strength_out, coloured_at, colour)
+        target = arms_hanging(target, blend_by_strength(motion, target, keep), content_at, keep, kept)
         motion = blend_by_strength(motion, target, keep)
         if config.cleanup and (coloured_at is not None or np.any(keep[:, automatic_legs] > 0)):
             # where the legs keep the content's stepping, the content's own contacts hold as well, and its

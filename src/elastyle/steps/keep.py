@@ -7,8 +7,9 @@ elsewhere (the legs and the spine, where the legs' travel and steps differ from 
 spine also where the head leans otherwise than theirs; each arm).
 Where the spine keeps the content's action it still takes the style's posture: the mean, over the frames
 it keeps within about ten seconds (`POSTURE_WINDOW_S`), of the change the style makes to the model's reading of
-it, scaled by the strength (so strength 0 stays the content); the arms that keep the content's action
-hang under it as they did (their hands where the content's are relative to the pelvis). Where the legs
+it, scaled by the strength (so strength 0 stays the content). Arms that keep the content's action keep
+their hands where the content's are relative to the pelvis (`arms_hanging`), whatever trunk and pelvis
+the output takes. Where the legs
 keep it because the windows perform another action (another gait or none, not another path), they also
 take a share (`TransferConfig.kept_statistics`) of the change the style's statistics alone make to the model's reading
 (the report's colouring of the content's latents): a walk given a run's style walks with the run's manner
@@ -22,11 +23,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from elastyle.core.body import find_limbs
+from elastyle.core.body import find_limbs, heading_yaw, pelvis_forward_local, yaw_matrices
 from elastyle.core.motion import Motion
-from elastyle.core.parts import body_parts, joint_set
+from elastyle.core.parts import body_parts, joint_set, subtree
 from elastyle.core.rotations import canonical_log, from_matrix, multiply, quat_multiply, to_matrix, to_quat
-from elastyle.core.skeleton import Skeleton, forward_kinematics
+from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import smooth
 from elastyle.steps.timeline import on_output_frames
 from elastyle.steps.track import StyleTrack
@@ -34,7 +35,7 @@ from elastyle.types import FloatArray, IntArray
 
 POSTURE_WINDOW_S = 10.0  # the style's posture is a local mean: Gaussian sigma, seconds
 POSTURE_SUPPORT = 0.1  # ... of the change over frames whose weights average at least this (less: scaled down)
-HANG_FROM_SHARE = 0.01  # kept arms hang under the trunk's posture where the output takes this much of each
+HANG_FROM_SHARE = 0.01  # an arm keeping at least this share of the content's action hangs as it did
 
 
 def keep_weights(
@@ -134,7 +135,6 @@ def keep_target(
     strength: FloatArray,
     coloured: Motion | None = None,
     colour: FloatArray | None = None,
-    kept: FloatArray | None = None,
 ) -> Motion:
     """What the kept joints become (N frames): the content (read at the output frames), with the style's
     local mean posture, times the strength (N,), on the joints whose parts weigh one (the spine where it
@@ -145,9 +145,7 @@ def keep_target(
     (`keep_weights` of the tracks' posture field; 0 at the joints the user keeps as they are); coloured:
     the decoded clip of the content's latents coloured with the style's statistics (the report's whitening
     and colouring), at the same frames; colour (N, J), 0 to 1: the share of its
-    change to the model's reading (`statistics_weights` times `TransferConfig.kept_statistics`); kept
-    (N, J), 0 to 1: how far the output then takes this target at each joint (`keep_weights`; None: fully),
-    so the kept arms hang as they did under as much of the trunk's posture as the output takes.
+    change to the model's reading (`statistics_weights` times `TransferConfig.kept_statistics`).
     """
     acting = strength > 0  # strength 0 stays the content exactly
     scale = np.clip(strength[acting], 0.0, 1.0)[:, None, None]  # (A, 1, 1)
@@ -165,48 +163,64 @@ def keep_target(
         # a local mean backed by at least POSTURE_SUPPORT of weight: a few frames weighed near 0 (a bow's edges)
         # gave the whole change of a mean of their own, undoing the bow they lie beside
         mean_change = smooth(weight * change, sigma) / np.maximum(smooth(weight, sigma), POSTURE_SUPPORT)
-        change = np.zeros_like(rotations[:, joints])  # (N, P, 3)
-        change[acting] = scale * mean_change[acting]
-        bent = rotations.copy()
-        bent[np.ix_(acting, joints)] = multiply(bent[np.ix_(acting, joints)], change[acting])
-        # the arms keep hanging as they did (their parts take no posture of their own): a trunk bent forward
-        # with the arms' local rotations kept swung a walk's hands 9 cm behind the body. Only at the frames
-        # where the output takes both a kept arm and the trunk's posture, each at least `HANG_FROM_SHARE`
-        roots = find_limbs(content.skeleton).arm_roots
-        share = np.ones((len(rotations), len(joints))) if kept is None else kept[:, joints]  # (N, P)
-        hung = acting & (share.max(axis=1) >= HANG_FROM_SHARE)
-        if kept is not None and len(roots):
-            hung &= kept[:, roots].max(axis=1) >= HANG_FROM_SHARE
-        if len(roots) and np.any(hung):
-            taken = rotations[hung]  # (F, J, 3) the trunk as far as the output takes its posture
-            taken[:, joints] = multiply(taken[:, joints], share[hung][:, :, None] * change[hung])
-            moved = content.translations[hung]
-            hanging = _arms_hanging(content.skeleton, moved, rotations[hung], taken)  # (F, H, 3)
-            bent[np.ix_(hung, roots)] = multiply(bent[np.ix_(hung, roots)], hanging)
-        rotations = bent
+        rotations[np.ix_(acting, joints)] = multiply(
+            rotations[np.ix_(acting, joints)], scale * mean_change[acting]
+        )
     return Motion(content.skeleton, rotations, content.translations, content.fps)
 
 
-def _arms_hanging(
-    skeleton: Skeleton, translations: FloatArray, before: FloatArray, bent: FloatArray
-) -> FloatArray:
-    """(F, H, 3) exp maps: each arm root's local turn that swings its arm about it so that its hand keeps
-    its place relative to the pelvis in `before` (F, J, 3) local rotations (translations (F, J, 3)), where
-    `bent` (F, J, 3) has the trunk's posture changed, as far as the arm reaches: an arm that keeps the
-    content's action keeps it where `steps.arms` measures it (its hand relative to the pelvis)."""
+def arms_hanging(target: Motion, body: Motion, content: Motion, keep: FloatArray, kept: IntArray) -> Motion:
+    """`target` (`keep_target`, N frames) with each arm's shoulder turned so that, on the trunk and pelvis the
+    output takes (`body`: the output blended with the target by `keep` (N, J)), the arm as the content
+    performs it puts its hand where the content's (`content`, the same N frames) lies relative to the pelvis
+    in the body's heading frame, where `steps.arms` reads an arm's action, as far as it reaches; at the
+    frames where the arm keeps at least `HANG_FROM_SHARE` of the content's action. With its local rotations
+    kept, a kept arm followed whatever trunk and pelvis the output took from the style: an elderly style's
+    trunk bent forward swung a walk's hands up to 14 cm behind the body. The arms the user keeps (kept (K,)
+    joints) stay the content's exactly."""
+    skeleton = target.skeleton
     limbs = find_limbs(skeleton)
-    roots, hands, pelvis = limbs.arm_roots, limbs.hands, skeleton.pelvis
-    was = forward_kinematics(skeleton, before, translations, np.append(hands, pelvis))[1]
-    turns, now = forward_kinematics(skeleton, bent, translations, hands)
-    # the content's hand place (relative to the pelvis, which the spine's posture leaves), from the bent root
-    wanted = was[:, hands] - was[:, [pelvis]] + now[:, [pelvis]] - now[:, roots]  # (N, H, 3)
-    reach = now[:, hands] - now[:, roots]  # (N, H, 3)
-    axis = np.cross(reach, wanted)
+    arms = [
+        (int(hand), _shoulder(skeleton, int(root), int(hand)))
+        for root, hand in zip(limbs.arm_roots, limbs.hands)
+        if int(root) not in set(kept.tolist())
+    ]
+    if not arms:
+        return target
+    hands, shoulders = (np.array(joints, dtype=np.int64) for joints in zip(*arms))
+    frames = np.flatnonzero(np.max(keep[:, shoulders], axis=1) >= HANG_FROM_SHARE)
+    if not len(frames):
+        return target
+    # the output's trunk and pelvis with the arms from the shoulders down as the target has them
+    arm_joints = np.array([j for shoulder in shoulders.tolist() for j in subtree(skeleton, shoulder)])
+    posed = body.rotations[frames]
+    posed[:, arm_joints] = target.rotations[np.ix_(frames, arm_joints)]
+    turns, places = Motion(skeleton, posed, body.translations[frames], body.fps).world(hands)
+    content_turns, content_places = Motion(
+        skeleton, content.rotations[frames], content.translations[frames], content.fps
+    ).world(np.append(hands, skeleton.pelvis))
+    # the content's hand places relative to its pelvis, turned from its heading to the output's
+    pelvis, forward = skeleton.pelvis, pelvis_forward_local(skeleton)
+    yaw = heading_yaw(turns[:, pelvis], forward) - heading_yaw(content_turns[:, pelvis], forward)
+    relative = content_places[:, hands] - content_places[:, [pelvis]]  # (F, H, 3)
+    wanted = places[:, [pelvis]] + np.einsum("fij,fhj->fhi", yaw_matrices(yaw), relative)
+    reach, aim = places[:, hands] - places[:, shoulders], wanted - places[:, shoulders]  # (F, H, 3)
+    axis = np.cross(reach, aim)
     size = np.linalg.norm(axis, axis=-1, keepdims=True)
-    angle = np.arctan2(size, np.sum(reach * wanted, axis=-1, keepdims=True))
-    swing = to_matrix(axis / np.maximum(size, 1e-12) * angle)  # (N, H, 3, 3) in the world
-    own = turns[:, roots]  # (N, H, 3, 3) the roots' world rotations
-    return from_matrix(np.swapaxes(own, -1, -2) @ swing @ own)
+    angle = np.arctan2(size, np.sum(reach * aim, axis=-1, keepdims=True))  # (F, H, 1)
+    swing = to_matrix(axis / np.maximum(size, 1e-12) * angle)  # (F, H, 3, 3) in the world
+    own = turns[:, shoulders]  # (F, H, 3, 3) the shoulders' world rotations
+    turned = from_matrix(np.swapaxes(own, -1, -2) @ swing @ own)  # (F, H, 3) each shoulder's local turn
+    rotations = target.rotations.copy()
+    rotations[np.ix_(frames, shoulders)] = multiply(rotations[np.ix_(frames, shoulders)], turned)
+    return Motion(skeleton, rotations, target.translations, target.fps)
+
+
+def _shoulder(skeleton: Skeleton, root: int, hand: int) -> int:
+    """The joint an arm swings about: the upper arm below a clavicle (an arm root with one child that is not
+    its hand), else the arm's root. Turning the clavicle by as much read as a shrug."""
+    children = skeleton.children(root)
+    return int(children[0]) if len(children) == 1 and int(children[0]) != hand else root
 
 
 def _change(reference: Motion, changed: Motion, joints: IntArray) -> FloatArray:
