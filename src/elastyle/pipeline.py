@@ -357,7 +357,7 @@ def transfer(
         )  # (N, J), read as the keep is
         _by_strength(posture, automatic, strength_out, config.decode)
         target = keep_target(content_at, styled_at, reference, posture, strength_out, coloured_at, colour)
-        target = arms_hanging(target, blend_by_strength(motion, target, keep), content_at, keep, kept)
+        target = arms_hanging(target, motion, content_at, keep, kept)
         motion = blend_by_strength(motion, target, keep)
         if config.cleanup and (coloured_at is not None or np.any(keep[:, automatic_legs] > 0)):
             # where the legs keep the content's stepping, the content's own contacts hold as well, and its

@@ -29,6 +29,7 @@ from elastyle.core.parts import body_parts, joint_set, subtree
 from elastyle.core.rotations import canonical_log, from_matrix, multiply, quat_multiply, to_matrix, to_quat
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import smooth
+from elastyle.steps.decode import blend_by_strength
 from elastyle.steps.timeline import on_output_frames
 from elastyle.steps.track import StyleTrack
 from elastyle.types import FloatArray, IntArray
@@ -169,9 +170,9 @@ def keep_target(
     return Motion(content.skeleton, rotations, content.translations, content.fps)
 
 
-def arms_hanging(target: Motion, body: Motion, content: Motion, keep: FloatArray, kept: IntArray) -> Motion:
+def arms_hanging(target: Motion, styled: Motion, content: Motion, keep: FloatArray, kept: IntArray) -> Motion:
     """`target` (`keep_target`, N frames) with each arm's shoulder turned so that, on the trunk and pelvis the
-    output takes (`body`: the output blended with the target by `keep` (N, J)), the arm as the content
+    output takes (`styled`, the output so far, blended with the target by `keep` (N, J)), the arm as the content
     performs it puts its hand where the content's (`content`, the same N frames) lies relative to the pelvis
     in the body's heading frame, where `steps.arms` reads an arm's action, as far as it reaches; at the
     frames where the arm keeps at least `HANG_FROM_SHARE` of the content's action. With its local rotations
@@ -193,9 +194,13 @@ def arms_hanging(target: Motion, body: Motion, content: Motion, keep: FloatArray
         return target
     # the output's trunk and pelvis with the arms from the shoulders down as the target has them
     arm_joints = np.array([j for shoulder in shoulders.tolist() for j in subtree(skeleton, shoulder)])
-    posed = body.rotations[frames]
+    before, after = (
+        Motion(skeleton, m.rotations[frames], m.translations[frames], m.fps) for m in (styled, target)
+    )
+    body = blend_by_strength(before, after, keep[frames])
+    posed = body.rotations.copy()
     posed[:, arm_joints] = target.rotations[np.ix_(frames, arm_joints)]
-    turns, places = Motion(skeleton, posed, body.translations[frames], body.fps).world(hands)
+    turns, places = Motion(skeleton, posed, body.translations, body.fps).world(hands)
     content_turns, content_places = Motion(
         skeleton, content.rotations[frames], content.translations[frames], content.fps
     ).world(np.append(hands, skeleton.pelvis))
