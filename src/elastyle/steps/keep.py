@@ -9,12 +9,11 @@ Where the spine keeps the content's action it still takes the style's posture: t
 it keeps within about ten seconds (`POSTURE_WINDOW_S`), of the change the style makes to the model's reading of
 it, scaled by the strength (so strength 0 stays the content). Arms that keep the content's action keep
 their hands where the content's are relative to the pelvis (`arms_hanging`), whatever trunk and pelvis
-the output takes. Where the legs
-keep it because the windows perform another action (another gait or none, not another path), they also
-take a share (`TransferConfig.kept_statistics`) of the change the style's statistics alone make to the model's reading
-(the report's colouring of the content's latents): a walk given a run's style walks with the run's manner
-as far as statistics carry it. Parts that `--style-part` gives another library keep the content's action as
-that library's track decides.
+the output takes. Where the legs keep it because the windows perform another action (another gait or
+none, not another path), they also take a share (`TransferConfig.kept_statistics`) of the change the
+style's statistics alone make to the model's reading (the report's colouring of the content's latents):
+a walk given a run's style walks with the run's manner as far as statistics carry it. Parts that
+`--style-part` gives another library keep the content's action as that library's track decides.
 """
 
 from __future__ import annotations
