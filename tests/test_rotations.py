@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
 from elastyle.core.rotations import continuous_log, from_matrix, multiply, slerp_resample, to_matrix, to_quat
@@ -72,3 +73,25 @@ def test_continuous_log_starts_below_a_half_turn_and_has_no_jumps() -> None:
     # a clip that starts past a half turn (5.5 rad about -y) starts at that rotation's shorter way round
     backwards = -rotvecs[::-1]
     np.testing.assert_allclose(continuous_log(backwards)[0, 0, 1], 2 * np.pi - 5.5, atol=1e-9)
+
+
+def test_least_turn_takes_each_direction_onto_its_target_even_the_opposite_one() -> None:
+    """Random directions, one pair pointing exactly opposite ways and one the same way: each turn takes its
+    source onto its target's direction (an opposite pair by a half turn), and `best_rotation` of one bone
+    does too (it turned an opposite bone by 135 degrees instead of 180)."""
+    from elastyle.core.rest_frames import best_rotation
+    from elastyle.core.rotations import least_turn
+
+    rng = np.random.default_rng(0)
+    sources, targets = rng.standard_normal((2, 20, 3))
+    targets[3], targets[4] = -2.0 * sources[3], 3.0 * sources[4]
+    turns = least_turn(sources, targets)
+    turned = np.einsum("nij,nj->ni", to_matrix(turns), sources)
+    cosines = (
+        np.sum(turned * targets, -1) / np.linalg.norm(turned, axis=-1) / np.linalg.norm(targets, axis=-1)
+    )
+    np.testing.assert_allclose(cosines, 1.0, atol=1e-9)
+    assert np.linalg.norm(turns[3]) == pytest.approx(np.pi) and np.linalg.norm(turns[4]) == 0.0
+    np.testing.assert_allclose(least_turn(sources[3], targets[3]), turns[3])
+    one = best_rotation(sources[3][None], targets[3][None]) @ sources[3]
+    assert one @ targets[3] / np.linalg.norm(one) / np.linalg.norm(targets[3]) == pytest.approx(1.0)

@@ -17,7 +17,7 @@ from elastyle.core.body import find_limbs, pelvis_forward_local
 from elastyle.core.joint_tree import folded_joints
 from elastyle.core.motion import Motion
 from elastyle.core.parts import subtree
-from elastyle.core.rotations import from_matrix, to_matrix
+from elastyle.core.rotations import from_matrix, least_turn, to_matrix
 from elastyle.core.skeleton import Skeleton
 from elastyle.types import FloatArray, IntArray
 
@@ -174,15 +174,7 @@ def best_rotation(sources: FloatArray, targets: FloatArray) -> FloatArray:
     a = sources / np.linalg.norm(sources, axis=1, keepdims=True)
     b = targets / np.linalg.norm(targets, axis=1, keepdims=True)
     if len(a) == 1:
-        axis, cosine = np.cross(a[0], b[0]), float(np.clip(a[0] @ b[0], -1.0, 1.0))
-        size = float(np.linalg.norm(axis))
-        if size < 1e-12:  # the same way, or exactly opposite: a half turn about any perpendicular
-            if cosine > 0:
-                return np.eye(3)
-            other = np.eye(3)[int(np.argmin(np.abs(a[0])))]
-            axis = np.cross(a[0], other)
-            size = float(np.linalg.norm(axis))
-        return to_matrix(axis / size * np.arctan2(size, cosine) if size else axis)
+        return to_matrix(least_turn(a[0], b[0]))
     u, _, vt = np.linalg.svd(b.T @ a)
     fix = np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))])
     return u @ fix @ vt

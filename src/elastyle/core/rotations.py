@@ -139,6 +139,22 @@ def to_matrix(rotvecs: FloatArray) -> FloatArray:
     return quat_to_matrix(to_quat(rotvecs))
 
 
+def least_turn(sources: FloatArray, targets: FloatArray) -> FloatArray:
+    """Exp maps (..., 3) of the least turns that take the directions of sources (..., 3) onto those of
+    targets (..., 3); a half turn, about the axis across the source and its smallest coordinate's axis,
+    where they point exactly opposite ways."""
+    axis = np.cross(sources, targets)
+    size = lengths(axis, keepdims=True)  # (..., 1)
+    angle = np.arctan2(size, np.sum(sources * targets, axis=-1, keepdims=True))
+    opposite = (size[..., 0] < 1e-12 * lengths(sources) * lengths(targets)) & (angle[..., 0] > np.pi / 2)
+    if np.any(opposite):
+        across = np.eye(3)[np.argmin(np.abs(sources[opposite]), axis=-1)]  # (K, 3)
+        axis[opposite] = np.cross(sources[opposite], across)
+        size[opposite] = lengths(axis[opposite], keepdims=True)
+        angle[opposite] = np.pi
+    return np.where(size > 0, axis / np.maximum(size, 1e-300) * angle, 0.0)
+
+
 def from_matrix(matrices: FloatArray) -> FloatArray:
     """Rotation matrices (..., 3, 3) -> exp maps (..., 3) with angle in [0, pi]."""
     return from_quat(matrix_to_quat(matrices))

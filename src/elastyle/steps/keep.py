@@ -25,7 +25,15 @@ import numpy as np
 from elastyle.core.body import find_limbs, heading_yaw, pelvis_forward_local, yaw_matrices
 from elastyle.core.motion import Motion
 from elastyle.core.parts import body_parts, joint_set, subtree
-from elastyle.core.rotations import canonical_log, from_matrix, multiply, quat_multiply, to_matrix, to_quat
+from elastyle.core.rotations import (
+    canonical_log,
+    from_matrix,
+    least_turn,
+    multiply,
+    quat_multiply,
+    to_matrix,
+    to_quat,
+)
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import smooth
 from elastyle.steps.decode import blend_by_strength
@@ -209,10 +217,7 @@ def arms_hanging(target: Motion, styled: Motion, content: Motion, keep: FloatArr
     relative = content_places[:, hands] - content_places[:, [pelvis]]  # (F, H, 3)
     wanted = places[:, [pelvis]] + np.einsum("fij,fhj->fhi", yaw_matrices(yaw), relative)
     reach, aim = places[:, hands] - places[:, shoulders], wanted - places[:, shoulders]  # (F, H, 3)
-    axis = np.cross(reach, aim)
-    size = np.linalg.norm(axis, axis=-1, keepdims=True)
-    angle = np.arctan2(size, np.sum(reach * aim, axis=-1, keepdims=True))  # (F, H, 1)
-    swing = to_matrix(axis / np.maximum(size, 1e-12) * angle)  # (F, H, 3, 3) in the world
+    swing = to_matrix(least_turn(reach, aim))  # (F, H, 3, 3) in the world
     own = turns[:, shoulders]  # (F, H, 3, 3) the shoulders' world rotations
     turned = from_matrix(np.swapaxes(own, -1, -2) @ swing @ own)  # (F, H, 3) each shoulder's local turn
     rotations = target.rotations.copy()
