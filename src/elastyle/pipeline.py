@@ -328,7 +328,9 @@ def transfer(
         also, floor, ceiling = held if held is not None else (None, None, None)
         motion = blend_by_strength(
             motion,
-            plant_feet(motion, root_share, also, floor, lowest_ground, root_applied, ceiling),
+            plant_feet(
+                motion, root_share, also, floor, lowest_ground, root_applied, ceiling, needed=clean_share > 0
+            ),
             clean_share,
         )
     if np.any(keep > 0):
@@ -370,14 +372,25 @@ def transfer(
                 motion = blend_by_strength(
                     motion,
                     plant_feet(
-                        motion, root_share, also, floor, lowest_ground, root_applied, ceiling, 1 - legs_keep
-                    ),
+                        motion,
+                        root_share,
+                        also,
+                        floor,
+                        lowest_ground,
+                        root_applied,
+                        ceiling,
+                        1 - legs_keep,
+                        clean_share > 0,
+                    ),  # fmt: skip
                     clean_share,
                 )
             else:
                 # legs that keep the content's action (a turn matched against straight windows) mix two
                 # gaits, whose stance feet slide: pinned again as far as they keep it, the root left where
                 # the clean-up put it (moving it again would shift the whole path), and kept above the ground
+                # in full from a small share on: a blend of two gaits slides whatever its share (a turning
+                # walk's legs at 0.09 of its own turn slid a planted foot 13 cm)
+                pin_share = np.clip(legs_keep / PIN_FULL_KEEP, 0.0, 1.0) * clean_share  # the strength once
                 pinned = plant_feet(
                     motion,
                     0.0,
@@ -386,13 +399,12 @@ def transfer(
                     lowest_ground,
                     foot_ceiling=ceiling,
                     lowering_share=1 - legs_keep,
+                    needed=pin_share > 0,
                 )
-                # in full from a small share on: a blend of two gaits slides whatever its share (a turning
-                # walk's legs at 0.09 of its own turn slid a planted foot 13 cm)
-                pin_share = np.clip(legs_keep / PIN_FULL_KEEP, 0.0, 1.0)
-                motion = blend_by_strength(motion, pinned, pin_share * clean_share)  # the strength once
+                motion = blend_by_strength(motion, pinned, pin_share)
+                lifted = (keep > 0) * clean_share[:, None]  # (N, J)
                 motion = blend_by_strength(
-                    motion, lift_to_ground(motion, lowest_ground), (keep > 0) * clean_share[:, None]
+                    motion, lift_to_ground(motion, lowest_ground, np.any(lifted > 0, axis=1)), lifted
                 )
             motion = motion.with_joints(content_at, kept, translations=True)  # kept parts stay the content's
     _check_finite(motion, "foot clean-up" if config.cleanup else "decoding", content_name)

@@ -112,6 +112,16 @@ class Skeleton:
         return np.flatnonzero(needed)
 
     @cached_property
+    def levels(self) -> tuple[IntArray, ...]:
+        """The joints below a root (a joint without a parent) by depth in the tree: the roots' children (n1,),
+        theirs (n2,), ..."""
+        depth = np.zeros(self.num_joints, dtype=np.int64)
+        for joint, parent in enumerate(self.parents.tolist()):
+            if parent >= 0:
+                depth[joint] = depth[parent] + 1
+        return tuple(np.flatnonzero(depth == level) for level in range(1, int(depth.max(initial=0)) + 1))
+
+    @cached_property
     def pelvis(self) -> int:
         """The centre joint whose translation and heading carry the body: the first joint that branches."""
         for joint in range(self.num_joints):
@@ -246,15 +256,18 @@ def forward_kinematics(
     world_positions = np.full((num_frames, skeleton.num_joints, 3), np.nan)
     world_matrices[:, needed] = to_matrix(local_rotations[:, needed])  # local for now, (T, n, 3, 3)
     world_positions[:, needed] = local_translations[:, needed]
-    for joint in needed.tolist():
-        parent = skeleton.parents[joint]
-        if parent < 0:
+    is_needed = np.zeros(skeleton.num_joints, dtype=bool)
+    is_needed[needed] = True
+    # one tree level at a time: every joint of a level below its parent, whose level is done
+    for level in skeleton.levels:
+        level = level[is_needed[level]]
+        if not len(level):
             continue
-        parent_matrices = world_matrices[:, parent]  # (T, 3, 3)
-        world_positions[:, joint] = world_positions[:, parent] + np.einsum(
-            "tij,tj->ti", parent_matrices, world_positions[:, joint]
+        parent_matrices = world_matrices[:, skeleton.parents[level]]  # (T, n, 3, 3)
+        world_positions[:, level] = world_positions[:, skeleton.parents[level]] + np.einsum(
+            "tnij,tnj->tni", parent_matrices, world_positions[:, level]
         )
-        world_matrices[:, joint] = parent_matrices @ world_matrices[:, joint]
+        world_matrices[:, level] = parent_matrices @ world_matrices[:, level]
     return world_matrices, world_positions
 
 

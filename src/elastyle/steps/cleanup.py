@@ -38,11 +38,12 @@ def plant_feet(
     root_applied: FloatArray | None = None,
     foot_ceiling: FloatArray | None = None,
     lowering_share: FloatArray | None = None,
+    needed: BoolArray | None = None,
 ) -> Motion:
     """The whole clean-up (see `_plant_feet`), a toe-less foot read at its End Site (`core.foot_tips`)."""
     extended = _plant_feet(
         with_foot_tips(motion), root_share, also, foot_floor, lowest_ground, root_applied, foot_ceiling,
-        lowering_share,
+        lowering_share, needed,
     )  # fmt: skip
     return on_own_joints(extended, motion.skeleton)
 
@@ -56,6 +57,7 @@ def _plant_feet(
     root_applied: FloatArray | None = None,
     foot_ceiling: FloatArray | None = None,
     lowering_share: FloatArray | None = None,
+    needed: BoolArray | None = None,
 ) -> Motion:
     """The whole clean-up: contacts found, the root moved by `root_share` (or per frame (T,)) of the stance feet's drift
     (`steps.root_follow.adjust_root_speed`, skipped at 0), then the feet pinned (`clean_feet`). One forward kinematics pass
@@ -64,7 +66,7 @@ def _plant_feet(
     ankle (`clean_feet`): legs that step as another clip does take its contacts and its feet's clearance
     of the ground (`steps.contacts.held_footing`); lowest_ground: `clean_feet`; root_applied: (T,) how far
     each frame takes the root's move (`steps.root_follow.root_shift`), all of it when None; foot_ceiling:
-    `clean_feet`; lowering_share: (T,) `clean_feet`."""
+    `clean_feet`; lowering_share: (T,) `clean_feet`; needed: (T,) `_clean_feet`."""
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
         return _clean_feet(motion)
@@ -90,6 +92,7 @@ def _plant_feet(
         ground=ground,
         foot_ceiling=foot_ceiling,
         lowering_share=lowering_share,
+        needed=needed,
     )
 
 
@@ -99,16 +102,18 @@ def clean_feet(
     blend_s: float = 0.15,
     foot_floor: FloatArray | None = None,
     lowest_ground: float | None = None,
+    needed: BoolArray | None = None,
 ) -> Motion:
     """Feet pinned (see `_clean_feet`), a toe-less foot read at its End Site (`core.foot_tips`), on the toes'
     ground level: the clip's own `ground_level`, but not below `lowest_ground` (file units; a transfer gives
     its content's floor less a centimetre, so toes the style's statistics swing through that floor are
-    lifted to it, and a foot standing on it is read as standing: `steps.contacts.point_grounds`)."""
+    lifted to it, and a foot standing on it is read as standing: `steps.contacts.point_grounds`). needed:
+    `_clean_feet`."""
     extended = with_foot_tips(motion)
     limbs = find_limbs(extended.skeleton)
     world = extended.world(limbs.feet) if len(limbs.toes) else None
     ground = _ground(extended, world[1], lowest_ground) if world is not None else None
-    pinned = _clean_feet(extended, contacts, blend_s, world, foot_floor, ground)
+    pinned = _clean_feet(extended, contacts, blend_s, world, foot_floor, ground, needed=needed)
     return on_own_joints(pinned, motion.skeleton)
 
 
@@ -127,6 +132,7 @@ def _clean_feet(
     ground: float | None = None,
     foot_ceiling: FloatArray | None = None,
     lowering_share: FloatArray | None = None,
+    needed: BoolArray | None = None,
 ) -> Motion:
     """Pin each planted foot in place with two-joint IK; a new Motion (same skeleton, fps and frames).
 
@@ -151,6 +157,8 @@ def _clean_feet(
     lowered by the smaller excess, eased over `FLOOR_EASE_S`, before its hold is read.
     lowering_share: (T,) 0 to 1, how much of `MAX_LOWERING_OF_LEG` each frame allows (all of it when None):
     legs that keep the content's action keep its pelvis height too.
+    needed: (T,) the frames whose legs the caller reads (a blend's others take another clip's): the IK runs
+    on these only, the others keep the input's leg rotations (None: every frame).
     """
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
@@ -208,20 +216,28 @@ def _clean_feet(
     # 3. two-joint IK, every leg at once; only frames whose ankle has to move change (elsewhere the input stays exact)
     chains = chains[legs]
     moved = lengths(targets[:, legs] - positions[:, chains[:, 2]]) > 1e-9 * leg  # (T, F_legs)
-    if np.any(moved):
+    if needed is not None:
+        moved &= needed[:, None]
+    rows = np.flatnonzero(np.any(moved, axis=1))  # (n,) frames whose legs turn
+    if len(rows):
         parents = skeleton.parents[chains[:, 0]]
-        local = leg_ik(world_rotations, positions, parents, chains, targets[:, legs])  # (T, F_legs, 3, 3)
-        frames, feet = np.nonzero(moved)
-        rotations[frames[:, None], chains[feet]] = local[frames, feet]
+        local = leg_ik(
+            world_rotations, positions, parents, chains, targets[:, legs], rows
+        )  # (n, F_legs, 3, 3)
+        frames, feet = np.nonzero(moved[rows])
+        rotations[rows[frames][:, None], chains[feet]] = local[frames, feet]
     return Motion(skeleton, rotations, translations, motion.fps)
 
 
-def lift_to_ground(motion: Motion, lowest_ground: float | None = None) -> Motion:
+def lift_to_ground(
+    motion: Motion, lowest_ground: float | None = None, needed: BoolArray | None = None
+) -> Motion:
     """Toes and ankles below the toes' ground level (`clean_feet`) lifted to it by the legs' IK, nothing
-    else changed: for legs set after the clean-up (those that keep the content's action)."""
+    else changed: for legs set after the clean-up (those that keep the content's action). needed:
+    `_clean_feet`."""
     limbs = find_limbs(motion.skeleton)
     no_contacts = np.zeros((motion.num_frames, len(limbs.toes)), dtype=bool)
-    return clean_feet(motion, no_contacts, lowest_ground=lowest_ground)
+    return clean_feet(motion, no_contacts, lowest_ground=lowest_ground, needed=needed)
 
 
 def _checked_floor(floor: FloatArray, motion: Motion, limbs: Limbs) -> FloatArray:

@@ -49,9 +49,10 @@ def leg_ik(
     parents: IntArray,
     chains: IntArray,
     targets: FloatArray,
+    frames: IntArray | None = None,
 ) -> FloatArray:
     """Analytic two-joint IK of F legs at once: local exp maps (T, F, 3, 3) of upper leg, knee and ankle
-    putting each ankle on its target.
+    putting each ankle on its target, or (n, F, 3, 3) at frames (n,) only (the same values there).
 
     world_rotations: (T, J, 3, 3); positions: (T, J, 3); parents: (F,) each upper leg's parent (-1: none);
     chains: (F, 3) upper leg, knee, ankle; targets: (T, F, 3).
@@ -75,6 +76,13 @@ def leg_ik(
         np.any(bent, axis=0)[:, None], np.sum(local_normal * bent[..., None], axis=0), across
     )
     mean_normal = mean_normal / np.maximum(lengths(mean_normal, keepdims=True), 1e-300)  # (F, 3)
+    if frames is not None:  # the clip's mean knee plane read, the rest at these frames only
+        upper_world, knee_world, ankle_world, hip, knee, ankle, normal, targets = (
+            values[frames]
+            for values in (upper_world, knee_world, ankle_world, hip, knee, ankle, normal, targets)
+        )
+        bent = bent[frames]
+        world_rotations = world_rotations[frames]
     axes = np.where(bent[..., None], normal, np.einsum("tfij,fj->tfi", upper_world, mean_normal))  # (T, F, 3)
 
     thigh, shin = lengths(knee - hip), lengths(ankle - knee)  # (T, F)
