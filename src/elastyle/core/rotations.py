@@ -28,23 +28,34 @@ def lengths(vectors: FloatArray, keepdims: bool = False) -> FloatArray:
 
 def to_quat(rotvecs: FloatArray) -> FloatArray:
     """Exp maps (..., 3) -> unit quaternions (..., 4), scalar last."""
-    angle = lengths(rotvecs, keepdims=True)  # (..., 1)
+    angle = lengths(rotvecs)  # (...)
     small = angle < 1e-6
     # sin(angle / 2) / angle, with its Taylor series near zero so the identity stays finite
-    scale = np.where(small, 0.5 - angle**2 / 48, np.sin(angle / 2) / np.where(small, 1.0, angle))
-    return np.concatenate([rotvecs * scale, np.cos(angle / 2)], axis=-1)
+    scale = np.sin(angle / 2)
+    if np.any(small):
+        scale = np.where(small, 0.5 - angle**2 / 48, scale / np.where(small, 1.0, angle))
+    else:
+        scale /= angle
+    quats = np.empty((*angle.shape, 4), dtype=np.result_type(rotvecs, scale))
+    np.multiply(rotvecs, scale[..., None], out=quats[..., :3])
+    np.cos(angle / 2, out=quats[..., 3])
+    return quats
 
 
 def from_quat(quats: FloatArray) -> FloatArray:
     """Quaternions (..., 4), scalar last -> exp maps (..., 3). Keeps the sign: w < 0 gives angles > pi."""
-    quats = quats / lengths(quats, keepdims=True)
-    vector = quats[..., :3]
-    sin_half = lengths(vector, keepdims=True)  # (..., 1)
-    half_angle = np.arctan2(sin_half, quats[..., 3:4])  # (..., 1) in [0, pi]
+    size = lengths(quats, keepdims=True)  # (..., 1)
+    vector = quats[..., :3] / size
+    sin_half = lengths(vector)  # (...)
+    half_angle = np.arctan2(sin_half, quats[..., 3] / size[..., 0])  # (...) in [0, pi]
     small = sin_half < 1e-9
     # angle / sin(angle / 2) -> 2 as the angle -> 0; keeps the identity rotation finite.
-    scale = np.where(small, 2.0, 2.0 * half_angle / np.where(small, 1.0, sin_half))
-    return vector * scale
+    if np.any(small):
+        scale = np.where(small, 2.0, 2.0 * half_angle / np.where(small, 1.0, sin_half))
+    else:
+        scale = 2.0 * half_angle / sin_half
+    vector *= scale[..., None]
+    return vector
 
 
 def canonical_log(quats: FloatArray) -> FloatArray:

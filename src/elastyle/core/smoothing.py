@@ -25,6 +25,8 @@ def smooth(values: FloatArray, sigma_frames: float) -> FloatArray:
     if values.shape[0] <= radius + 1:
         return (_covering_weights(kernel, values.shape[0]) @ flat).reshape(values.shape)
     padded = pad_edges(flat, radius, radius)  # (T + 2r, N)
+    if flat.shape[1] == 1:  # one series (a share over time): numpy's convolution, twice as fast
+        return np.convolve(padded[:, 0], kernel, mode="valid").reshape(values.shape)
     windows = np.lib.stride_tricks.sliding_window_view(padded, 2 * radius + 1, axis=0)  # (T, N, K)
     return (windows @ kernel).reshape(values.shape)
 
