@@ -402,9 +402,9 @@ def transfer(
                     needed=pin_share > 0,
                 )
                 motion = blend_by_strength(motion, pinned, pin_share)
-                lifted = (keep > 0) * clean_share[:, None]  # (N, J)
+                lifted = (keep > 0) * clean_share[:, None]  # (N, J); the lift turns leg joints only
                 motion = blend_by_strength(
-                    motion, lift_to_ground(motion, lowest_ground, np.any(lifted > 0, axis=1)), lifted
+                    motion, lift_to_ground(motion, lowest_ground, np.any(lifted[:, legs] > 0, axis=1)), lifted
                 )
             motion = motion.with_joints(content_at, kept, translations=True)  # kept parts stay the content's
     _check_finite(motion, "foot clean-up" if config.cleanup else "decoding", content_name)
