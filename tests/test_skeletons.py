@@ -172,7 +172,8 @@ def test_rigs_with_more_spine_and_neck_joints_under_other_names(walk: Motion, tm
     and a head tip, and with a root kept above the hips, whose offset places the body rather than makes a
     bone (scaled by it, Spine1 was read as the model's Spine, 18 cm off; with fingers, refused), and with IK
     targets below that root (the body's height read below the hips' match, not from the root), with tips as
-    joints, and with CMU's hip joints carrying the thighs' offsets."""
+    joints, with CMU's hip joints carrying the thighs' offsets, and with a joint between the shoulders' and
+    the neck in line with the neck (read as the neck, the real head as a tip)."""
     from elastyle import transfer
 
     clip = walk.slice(0, 60)
@@ -213,6 +214,14 @@ def test_rigs_with_more_spine_and_neck_joints_under_other_names(walk: Motion, tm
             ("Spine1",),
         ),
         "cmu": (cmu, lambda name: CMU.get(name, name), ("Neck1",)),
+        # a joint between the shoulders' and the neck, in line with the neck: read without folds, it was taken
+        # for the neck, the neck for the head and the head for a tip, all in line, their bones pointing as the
+        # model's; the head turned 16 degrees off and the hands moved 4 cm. Their lengths tell
+        "a neck joint above the shoulders' joint": (
+            _without_root(_with_joint_between(clip, "Chest", "Neck", "Spine3", turn)),
+            lambda name: MIXAMO.get(name, name),
+            ("Spine3",),
+        ),
         # hip joints that carry the thighs' offsets, the thighs at their place: each thigh is the joint that
         # turns (read without folds, the legs were taken a joint short and the rig refused)
         "cmu, hip joints": (

@@ -43,19 +43,31 @@ def by_hierarchy(model: Skeleton, clip: Skeleton) -> IntArray | None:
 
 
 def _rest_gap(model: Skeleton, clip: Skeleton, joints: IntArray) -> float:
-    """How far the clip's bones at rest point from the model's under the reading `joints` (J',) (each model
+    """How far the clip's bones at rest lie from the model's under the reading `joints` (J',) (each model
     joint's clip joint from the model's joint J - J' on): the sum, over the model's bones, of one less the
-    cosine of the angle between them (1 where one of the two has no length)."""
+    cosine of the angle between them (1 where one of the two has no length) and of how far their lengths'
+    ratio departs from the clip's size against the model's (the absolute log of the ratio over the median
+    ratio). Bones in a line tell two readings apart by their lengths alone: a neck joint read as the model's
+    head, the head hanging below it, points as the model's neck and head do, at half and a third more than
+    their lengths."""
     first = model.num_joints - len(joints)
+    bones = [
+        (model.offsets[joint], clip.offset_from(int(joints[parent - first]), int(joints[joint - first])))
+        for joint, parent in (
+            (joint, int(model.parents[joint])) for joint in range(first + 1, model.num_joints)
+        )
+        if parent >= first
+    ]
+    sizes = [(float(np.linalg.norm(ours)), float(np.linalg.norm(theirs))) for ours, theirs in bones]
+    ratios = [theirs / ours for ours, theirs in sizes if ours > 0 and theirs > 0]
+    scale = float(np.median(ratios)) if ratios else 1.0
     gap = 0.0
-    for joint in range(first + 1, model.num_joints):
-        parent = int(model.parents[joint])
-        if parent < first:
-            continue
-        ours = model.offsets[joint]
-        theirs = clip.offset_from(int(joints[parent - first]), int(joints[joint - first]))
-        sizes = float(np.linalg.norm(ours)) * float(np.linalg.norm(theirs))
-        gap += 1.0 - float(ours @ theirs) / sizes if sizes > 0 else 1.0
+    for (ours, theirs), (our_size, their_size) in zip(bones, sizes):
+        if our_size > 0 and their_size > 0:
+            gap += 1.0 - float(ours @ theirs) / (our_size * their_size)
+            gap += abs(float(np.log(their_size / our_size / scale)))
+        else:
+            gap += 1.0
     return gap
 
 
