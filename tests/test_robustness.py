@@ -318,6 +318,34 @@ def test_failed_write_keeps_the_old_file(tmp_path: Path, monkeypatch: pytest.Mon
     assert [p.name for p in tmp_path.iterdir()] == ["out.bvh"]
 
 
+def test_an_output_and_its_explain_record_are_written_both_or_neither(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, dataset_clips: list[ClipRef]
+) -> None:
+    """The disk filling up while the explain record is written: the output had been written already and the
+    command failed, so running it again said the output exists. Now neither is written, and no temporary
+    file is left."""
+    from elastyle.cli import main
+
+    content = clip_named(dataset_clips, "dataset-2_walk_normal_010").name
+    style = clip_named(dataset_clips, "dataset-2_walk_active_010").name
+    out, record = tmp_path / "o.bvh", tmp_path / "o.json"
+    if not Path("/proc/self/fd").is_dir():
+        pytest.skip("needs /proc to tell which file is being written")
+    real_fsync = os.fsync
+
+    def full_at_the_record(handle: int) -> None:  # the output's file syncs, the record's finds the disk full
+        if Path(os.readlink(f"/proc/self/fd/{handle}")).name.startswith(".o.json."):
+            raise OSError(28, "No space left on device")
+        real_fsync(handle)
+
+    monkeypatch.setattr(os, "fsync", full_at_the_record)
+    assert main(["transfer", content, "--style", style, "-o", str(out), "--explain", str(record)]) == 1
+    assert list(tmp_path.iterdir()) == []
+    monkeypatch.setattr(os, "fsync", real_fsync)
+    assert main(["transfer", content, "--style", style, "-o", str(out), "--explain", str(record)]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["o.bvh", "o.json"]
+
+
 def test_written_file_has_the_users_usual_mode(tmp_path: Path) -> None:
     motion, layout = parse_bvh(GOOD.encode(), "good.bvh")
     umask = os.umask(0o027)

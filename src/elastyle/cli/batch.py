@@ -107,17 +107,19 @@ def _transfer(job: Job, content_spec: str, target: Path) -> Output:
 
 
 def _write(job: Job, target: Path, output: bytes, explain: str | None) -> None:
-    """An output file, and its explain record where one is asked for, each atomically."""
-    from elastyle.io.files import write_bytes_atomic, write_text_atomic
+    """An output file, and its explain record where one is asked for, atomically: both or neither."""
+    from elastyle.io.files import write_files_atomic
 
-    write_bytes_atomic(target, output, force=job.force, inputs=job.inputs)
-    log.info("wrote %s", target)
+    files = [(target, output, job.inputs)]
     if job.explain and explain is not None:
         if names_folder(job.explain):  # made with the first record (its parent was checked beforehand)
             Path(job.explain).mkdir(exist_ok=True)
         record = explain_path(job.explain, target)
-        write_text_atomic(record, explain, force=job.force, inputs=(*job.inputs, str(target)))
-        log.info("wrote %s (the explain record)", record)
+        files.append((record, explain.encode("utf-8"), (*job.inputs, str(target))))
+    write_files_atomic(files, force=job.force)  # both or neither
+    log.info("wrote %s", target)
+    if len(files) > 1:
+        log.info("wrote %s (the explain record)", files[1][0])
 
 
 def transfer_task(job: Job, content_spec: str, target: Path) -> Output | str:

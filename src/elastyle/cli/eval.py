@@ -42,7 +42,7 @@ def add_eval_commands(commands: Any) -> None:
         "--pairs", type=_positive_int, default=24, help="benchmark pairs per set, at least 1 (default 24)"
     )
     evaluate.add_argument("--model", help="model file (default: the shipped model)")
-    add_units_flag(evaluate)
+    add_units_flag(evaluate, "the figures are reported in centimetres from it")
     evaluate.add_argument("--out", help="folder for benchmark.json and benchmark.md")
     evaluate.add_argument(
         "--json", action="store_true", help="print figures (or the --benchmark report) as JSON"
@@ -86,7 +86,7 @@ def run_eval(args: argparse.Namespace) -> int:
         raise UsageError("--out is the benchmark's report folder; it needs --benchmark DATA")
     if args.benchmark:
         from elastyle.eval.suite import markdown_table, run_benchmark
-        from elastyle.io.files import check_output_path, write_text_atomic
+        from elastyle.io.files import check_output_path, write_files_atomic
 
         folder = Path(args.out) if args.out else None
         if folder is not None and folder.exists():  # refused before the benchmark runs, not after
@@ -100,10 +100,13 @@ def run_eval(args: argparse.Namespace) -> int:
         print(json.dumps(_strict(report), indent=1) if args.json else table)
         if folder is not None:
             folder.mkdir(parents=True, exist_ok=True)
-            write_text_atomic(
-                folder / "benchmark.json", json.dumps(_strict(report), indent=1), force=args.force
-            )
-            write_text_atomic(folder / "benchmark.md", table, force=args.force)
+            write_files_atomic(
+                [
+                    (folder / "benchmark.json", json.dumps(_strict(report), indent=1).encode("utf-8"), ()),
+                    (folder / "benchmark.md", table.encode("utf-8"), ()),
+                ],
+                force=args.force,
+            )  # both or neither
         return 0
     if not (args.output and args.content and args.style):
         raise UsageError("give OUT.bvh --content C.bvh --style S.bvh, or --benchmark DATA")

@@ -8,6 +8,7 @@ import logging
 import os
 import stat
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 
 from elastyle.errors import OutputError
@@ -139,32 +140,53 @@ def write_bytes_atomic(
 ) -> None:
     """Write to a temporary file beside `path`, then put it in place only once complete: renamed over the
     target with `force`, else linked to a name that must not exist yet (one of two racing writers wins)."""
-    target = check_output_path(path, force=force, inputs=inputs, probe=False)  # the write itself tells
-    _remove_stale_temporaries(target)
+    write_files_atomic([(path, data, inputs)], force=force)
+
+
+def write_files_atomic(
+    files: Sequence[tuple[str | os.PathLike[str], bytes, tuple[str, ...]]], force: bool = False
+) -> None:
+    """Files that go together (an output and its explain record), each (path, data, inputs) as
+    `write_bytes_atomic` writes one: every file is first written whole to a temporary beside its target,
+    and only then are they put in place, in order. A failure (a full disk, a name taken meanwhile) leaves
+    none of them: the temporaries are removed, and a file put in place under a name that was free is
+    removed again (one renamed over an existing file with `force` stays)."""
+    targets = [check_output_path(path, force=force, inputs=inputs, probe=False) for path, _, inputs in files]
+    temporaries: list[Path] = []
+    placed: list[Path] = []  # targets put in place under a name that was free
+    current = targets[0]
     try:
-        temporary, handle = _create_temporary(target)
-    except OSError as error:
-        raise OutputError(f"{target}: write failed: {error.strerror or error}") from None
-    try:
-        with os.fdopen(handle, "wb") as stream:
-            stream.write(data)
-            stream.flush()
-            os.fsync(stream.fileno())
-        if force:
-            os.replace(temporary, target)
-        else:
-            _link_new(temporary, target)
+        for current, (_, data, _) in zip(targets, files):
+            _remove_stale_temporaries(current)
+            temporary, handle = _create_temporary(current)
+            temporaries.append(temporary)
+            with os.fdopen(handle, "wb") as stream:
+                stream.write(data)
+                stream.flush()
+                os.fsync(stream.fileno())
+        for current, temporary in zip(targets, temporaries):
+            if force:
+                os.replace(temporary, current)
+            else:
+                _link_new(temporary, current)
+                placed.append(current)
     except FileExistsError:
-        temporary.unlink(missing_ok=True)
+        _undo(temporaries, placed)
         raise OutputError(
-            f"{target}: already exists (--force, or force=True in Python, overwrites it)"
+            f"{current}: already exists (--force, or force=True in Python, overwrites it)"
         ) from None
     except OSError as error:
-        temporary.unlink(missing_ok=True)
-        raise OutputError(f"{target}: write failed: {error.strerror or error}") from None
+        _undo(temporaries, placed)
+        raise OutputError(f"{current}: write failed: {error.strerror or error}") from None
     except BaseException:
-        temporary.unlink(missing_ok=True)
+        _undo(temporaries, placed)
         raise
+
+
+def _undo(temporaries: list[Path], placed: list[Path]) -> None:
+    """A failed `write_files_atomic`'s traces removed: its temporaries, and the files it created."""
+    for path in [*temporaries, *placed]:
+        path.unlink(missing_ok=True)
 
 
 def _link_new(temporary: Path, target: Path) -> None:
