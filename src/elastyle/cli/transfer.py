@@ -80,8 +80,8 @@ def add_transfer_command(commands: Any) -> None:
     )  # fmt: skip
     parser.add_argument(
         "--scheduler", metavar="ADDRESS",
-        help="run several content clips on this Dask cluster (tcp://host:8786; elastyle[dask]); the output "
-        "folder must be one the workers see",
+        help="run several content clips on this Dask cluster (tcp://host:8786; elastyle[dask]); the workers "
+        "read the content clips, so those must be on storage every worker sees; this command writes the outputs",
     )  # fmt: skip
     parser.add_argument(
         "--skip-existing",
