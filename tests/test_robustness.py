@@ -346,6 +346,40 @@ def test_an_output_and_its_explain_record_are_written_both_or_neither(
     assert sorted(p.name for p in tmp_path.iterdir()) == ["o.bvh", "o.json"]
 
 
+@pytest.mark.parametrize("force", [False, True])
+def test_files_written_together_are_undone_where_a_later_one_cannot_be_put_in_place(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, force: bool
+) -> None:
+    """An output put in place, then its record's name refused: the output is removed again, or with force
+    the file it replaced is put back; no temporary file is left."""
+    from elastyle import OutputError
+    from elastyle.io.files import write_files_atomic
+
+    output, record = tmp_path / "o.bvh", tmp_path / "o.json"
+    if force:
+        output.write_text("the user's output")
+        record.write_text("the user's record")
+    real_link, real_replace = os.link, os.replace
+
+    def refused_at_the_record(real):  # type: ignore[no-untyped-def]
+        def put(source: object, target: object) -> None:
+            if Path(str(target)) == record:
+                raise OSError(28, "No space left on device")
+            real(source, target)
+
+        return put
+
+    monkeypatch.setattr(os, "link", refused_at_the_record(real_link))
+    monkeypatch.setattr(os, "replace", refused_at_the_record(real_replace))
+    with pytest.raises(OutputError, match=r"o\.json: write failed: No space left on device"):
+        write_files_atomic([(output, b"new output", ()), (record, b"new record", ())], force=force)
+    if force:
+        assert output.read_text() == "the user's output" and record.read_text() == "the user's record"
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["o.bvh", "o.json"]
+    else:
+        assert list(tmp_path.iterdir()) == []
+
+
 def test_written_file_has_the_users_usual_mode(tmp_path: Path) -> None:
     motion, layout = parse_bvh(GOOD.encode(), "good.bvh")
     umask = os.umask(0o027)

@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 from elastyle.core.threads import stop_workers
-from elastyle.errors import ElastyleError, UsageError
+from elastyle.errors import ElastyleError, OutputError, UsageError
 
 if TYPE_CHECKING:
     from elastyle.model.file import StyleModel
@@ -111,12 +111,19 @@ def _write(job: Job, target: Path, output: bytes, explain: str | None) -> None:
     from elastyle.io.files import write_files_atomic
 
     files = [(target, output, job.inputs)]
+    made = None  # the records' folder, where this write makes it
     if job.explain and explain is not None:
-        if names_folder(job.explain):  # made with the first record (its parent was checked beforehand)
-            Path(job.explain).mkdir(exist_ok=True)
+        if names_folder(job.explain) and not Path(job.explain).is_dir():
+            made = Path(job.explain)  # made with the first record (its parent was checked beforehand)
+            made.mkdir(exist_ok=True)
         record = explain_path(job.explain, target)
         files.append((record, explain.encode("utf-8"), (*job.inputs, str(target))))
-    write_files_atomic(files, force=job.force)  # both or neither
+    try:
+        write_files_atomic(files, force=job.force)  # both or neither
+    except OutputError:
+        if made is not None and not any(made.iterdir()):
+            made.rmdir()
+        raise
     log.info("wrote %s", target)
     if len(files) > 1:
         log.info("wrote %s (the explain record)", files[1][0])

@@ -199,14 +199,14 @@ def _print_figures(figures: dict[str, float], as_json: bool) -> None:
 
 def run_demo(args: argparse.Namespace) -> int:
     from elastyle.eval.report import transfer_figures
-    from elastyle.io.bvh_write import write_bvh
+    from elastyle.io.clip_write import clip_bytes
     from elastyle.io.dataset import (
         DATA_ENVIRONMENT_VARIABLE,
         PUBLIC_DATASET_HINT,
         default_data_path,
         find_clips,
     )
-    from elastyle.io.files import write_text_atomic
+    from elastyle.io.files import write_files_atomic
     from elastyle.model.file import load_model
     from elastyle.pipeline import transfer
     from elastyle.steps.config import TransferConfig
@@ -246,10 +246,14 @@ def run_demo(args: argparse.Namespace) -> int:
         for method in ("elastic", "rigid"):
             result = transfer(content, library, TransferConfig(method=method), model=model)
             base = folder / f"{style_name}_{method}"
-            write_bvh(base.with_suffix(".bvh"), result.motion, layout, force=args.force)
-            write_text_atomic(
-                base.with_suffix(".json"), json.dumps(result.explain, indent=1), force=args.force
-            )
+            output = base.with_suffix(".bvh")
+            write_files_atomic(
+                [
+                    (output, clip_bytes(output, result.motion, layout), ()),
+                    (base.with_suffix(".json"), json.dumps(result.explain, indent=1).encode("utf-8"), ()),
+                ],
+                force=args.force,
+            )  # an output and its explain record: both or neither
             figures = transfer_figures(result.motion, content, style)
             print(
                 f"  {style_name:<10} {method:<8} cadence {figures['cadence_content_steps_s']:.2f} -> "

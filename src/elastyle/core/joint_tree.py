@@ -37,9 +37,12 @@ def by_hierarchy(model: Skeleton, clip: Skeleton) -> IntArray | None:
     if folded is not None and folded_joints(clip, folded):  # else no other reading than without folds
         readings.append(folded)
     found = [joints for joints in readings if joints is not None]
-    # both: the one whose bones point most alike the model's (a chain read one joint short, the legs' first
-    # bones at the hip joints CMU inserts, matched without folds and left the rig refused)
+    # both: the one whose bones point and reach most alike the model's (a chain read one joint short, the legs'
+    # first bones at the hip joints CMU inserts, matched without folds and left the rig refused)
     return min(found, key=lambda joints: _rest_gap(model, clip, joints)) if found else None
+
+
+MOST_LENGTH_GAP = 1.0  # what a bone's length costs `_rest_gap` at most: a length e times off, or more
 
 
 def _rest_gap(model: Skeleton, clip: Skeleton, joints: IntArray) -> float:
@@ -47,9 +50,10 @@ def _rest_gap(model: Skeleton, clip: Skeleton, joints: IntArray) -> float:
     joint's clip joint from the model's joint J - J' on): the sum, over the model's bones, of one less the
     cosine of the angle between them (1 where one of the two has no length) and of how far their lengths'
     ratio departs from the clip's size against the model's (the absolute log of the ratio over the median
-    ratio). Bones in a line tell two readings apart by their lengths alone: a neck joint read as the model's
-    head, the head hanging below it, points as the model's neck and head do, at half and a third more than
-    their lengths."""
+    ratio, at most `MOST_LENGTH_GAP`: a bone of almost no length costs what one of none does). Bones in a
+    line tell two readings apart by their lengths alone: a neck joint read as the model's neck, the neck as
+    its head and the head as a tip below it, points as the model's neck and head do, at half and a third
+    more than their lengths."""
     first = model.num_joints - len(joints)
     bones = [
         (model.offsets[joint], clip.offset_from(int(joints[parent - first]), int(joints[joint - first])))
@@ -65,7 +69,7 @@ def _rest_gap(model: Skeleton, clip: Skeleton, joints: IntArray) -> float:
     for (ours, theirs), (our_size, their_size) in zip(bones, sizes):
         if our_size > 0 and their_size > 0:
             gap += 1.0 - float(ours @ theirs) / (our_size * their_size)
-            gap += abs(float(np.log(their_size / our_size / scale)))
+            gap += min(abs(float(np.log(their_size / our_size / scale))), MOST_LENGTH_GAP)
         else:
             gap += 1.0
     return gap

@@ -28,6 +28,7 @@ def lengths(vectors: FloatArray, keepdims: bool = False) -> FloatArray:
 
 def to_quat(rotvecs: FloatArray) -> FloatArray:
     """Exp maps (..., 3) -> unit quaternions (..., 4), scalar last."""
+    rotvecs = np.asarray(rotvecs)
     angle = lengths(rotvecs)  # (...)
     small = angle < 1e-6
     # sin(angle / 2) / angle, with its Taylor series near zero so the identity stays finite
@@ -44,6 +45,7 @@ def to_quat(rotvecs: FloatArray) -> FloatArray:
 
 def from_quat(quats: FloatArray) -> FloatArray:
     """Quaternions (..., 4), scalar last -> exp maps (..., 3). Keeps the sign: w < 0 gives angles > pi."""
+    quats = np.asarray(quats)
     size = lengths(quats, keepdims=True)  # (..., 1)
     vector = quats[..., :3] / size
     sin_half = lengths(vector)  # (...)

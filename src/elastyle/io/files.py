@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import logging
 import os
+import shutil
 import stat
 import tempfile
 from collections.abc import Sequence
@@ -149,11 +150,18 @@ def write_files_atomic(
     """Files that go together (an output and its explain record), each (path, data, inputs) as
     `write_bytes_atomic` writes one: every file is first written whole to a temporary beside its target,
     and only then are they put in place, in order. A failure (a full disk, a name taken meanwhile) leaves
-    none of them: the temporaries are removed, and a file put in place under a name that was free is
-    removed again (one renamed over an existing file with `force` stays)."""
+    none of them: the temporaries are removed, a file put in place under a name that was free is removed
+    again, and one put over an existing file (`force`) is put back as it was."""
+    if not files:
+        return
     targets = [check_output_path(path, force=force, inputs=inputs, probe=False) for path, _, inputs in files]
+    seen: set[str] = set()
+    for target in targets:
+        if os.path.realpath(target) in seen:
+            raise OutputError(f"{target}: named twice among the files written together; give each its own")
+        seen.add(os.path.realpath(target))
     temporaries: list[Path] = []
-    placed: list[Path] = []  # targets put in place under a name that was free
+    placed: list[tuple[Path, Path | None]] = []  # each target put in place, and the copy of what it replaced
     current = targets[0]
     try:
         for current, (_, data, _) in zip(targets, files):
@@ -164,12 +172,20 @@ def write_files_atomic(
                 stream.write(data)
                 stream.flush()
                 os.fsync(stream.fileno())
-        for current, temporary in zip(targets, temporaries):
-            if force:
-                os.replace(temporary, current)
+        for at, (current, temporary) in enumerate(zip(targets, temporaries)):
+            if force and current.exists():
+                # kept until the files after it are in place too (none: nothing is left to fail)
+                kept = _kept_copy(current) if at < len(targets) - 1 else None
+                try:
+                    os.replace(temporary, current)
+                except BaseException:
+                    if kept is not None:
+                        kept.unlink(missing_ok=True)
+                    raise
+                placed.append((current, kept))
             else:
                 _link_new(temporary, current)
-                placed.append(current)
+                placed.append((current, None))
     except FileExistsError:
         _undo(temporaries, placed)
         raise OutputError(
@@ -181,11 +197,36 @@ def write_files_atomic(
     except BaseException:
         _undo(temporaries, placed)
         raise
+    for _, kept in placed:
+        if kept is not None:
+            kept.unlink(missing_ok=True)
 
 
-def _undo(temporaries: list[Path], placed: list[Path]) -> None:
-    """A failed `write_files_atomic`'s traces removed: its temporaries, and the files it created."""
-    for path in [*temporaries, *placed]:
+def _kept_copy(target: Path) -> Path:
+    """A copy of an existing file beside it (a hard link where the file system has them), under a temporary
+    name, for `_undo` to put back."""
+    kept = target.with_name(f"{_temporary_prefix(target)}{os.getpid()}.{os.urandom(4).hex()}.tmp")
+    try:
+        os.link(target, kept)
+    except FileExistsError:
+        raise
+    except OSError:
+        shutil.copy2(target, kept)
+    return kept
+
+
+def _undo(temporaries: list[Path], placed: list[tuple[Path, Path | None]]) -> None:
+    """A failed `write_files_atomic`'s traces removed: the files it put in place (the ones it replaced put
+    back), then its temporaries."""
+    for target, kept in reversed(placed):
+        try:
+            if kept is None:
+                target.unlink(missing_ok=True)
+            else:
+                os.replace(kept, target)
+        except OSError:
+            log.warning("could not undo the write of %s", target)
+    for path in temporaries:
         path.unlink(missing_ok=True)
 
 
@@ -200,7 +241,10 @@ def _link_new(temporary: Path, target: Path) -> None:
             raise FileExistsError(str(target)) from None
         os.replace(temporary, target)
         return
-    temporary.unlink()
+    try:
+        temporary.unlink()
+    except OSError:  # the target is in place; the temporary goes with the next write's stale ones
+        pass
 
 
 def _temporary_prefix(target: Path) -> str:
