@@ -160,6 +160,45 @@ def test_model_with_other_skeleton_lists_the_joints(three_channel_bvh: Path) -> 
         load_model().check_clip(motion, "tiny_xyz.bvh")
 
 
+def test_clips_shorter_than_a_training_window_are_said_and_not_counted(
+    tmp_path: Path, three_channel_bvh: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A clip shorter than the training window gives none: two 3 s walks and a 1 s loop trained with 2 s
+    windows left the loop out in silence, and the model said it was trained on 3 clips. Now a note says so
+    and what window would include it, and the model counts 2; with that window, 3."""
+    import logging
+
+    from elastyle import write_bvh
+    from elastyle.training.config import TrainConfig
+    from elastyle.training.loop import train
+
+    motion, layout = read_bvh(three_channel_bvh)
+    for take, frames in enumerate((90, 90, 30)):
+        rotations = np.zeros((frames, motion.skeleton.num_joints, 3))
+        rotations[:, 2, 0] = 0.5 * np.sin(np.arange(frames) / (6.0 + take))
+        translations = np.repeat(motion.translations[:1], frames, axis=0)
+        write_bvh(
+            tmp_path / f"loop_{take + 1}.bvh",
+            type(motion)(motion.skeleton, rotations, translations, 30.0),
+            layout,
+        )
+    counts = {}
+    for window_s in (2.0, 1.0):
+        caplog.clear()
+        with caplog.at_level(logging.INFO, logger="elastyle"):
+            model = train(
+                [str(tmp_path / "*.bvh")], str(tmp_path / f"m{window_s:g}.npz"),
+                TrainConfig(steps=2, window_s=window_s, mirror_augment=False), progress=False,
+            )  # fmt: skip
+        counts[window_s] = model.metadata["training_clips"]
+        said = [r.getMessage() for r in caplog.records if "shorter than the" in r.getMessage()]
+        if window_s == 2.0:
+            assert said and "1 of the 3 training clips" in said[0] and "--window-s 1.00" in said[0], said
+        else:
+            assert not said, said
+    assert counts == {2.0: 2, 1.0: 3}
+
+
 def test_training_works_on_another_skeleton(tmp_path: Path, three_channel_bvh: Path, capsys) -> None:  # type: ignore[no-untyped-def]
     """A 3-channel skeleton of another naming scheme: train a few steps, then transfer with the model."""
     from elastyle import write_bvh

@@ -95,6 +95,7 @@ def train(
             f"{', '.join(map(str, data))}: no training clip has --kernel {kernel} frames at {fps:g} fps; "
             "give longer clips"
         )
+    lengths = [m.num_frames for m in train_motions]  # (clips,) frames of each training clip
     if config.mirror_augment:
         try:
             train_motions = train_motions + [mirror(m) for m in train_motions]
@@ -112,6 +113,16 @@ def train(
         log.info(
             "note: the longest training clip is %.2f s, so windows are %.2f s instead of --window-s %g",
             window / fps, window / fps, config.window_s,
+        )  # fmt: skip
+    # a clip shorter than a window gives none: said, with what would train on it (clips of one loop or one
+    # gesture, a second or two, were left out of a 4 s window in silence)
+    unwindowed = [n for n in lengths if n < window]
+    if unwindowed:
+        shortest = max(min(unwindowed), kernel)
+        log.warning(
+            "note: %d of the %d training clips are shorter than the %.2f s windows (the shortest %.2f s) and are "
+            "not trained on; --window-s %.2f trains on every one (--recipe shipped: 2 s windows)",
+            len(unwindowed), len(lengths), window / fps, min(unwindowed) / fps, math.floor(100 * shortest / fps) / 100,
         )  # fmt: skip
     train_norm = [((f - mean) / std).astype(np.float32) for f in train_features]
     val_norm = [((f - mean) / std).astype(np.float32) for f in val_features if f.shape[0] >= window]
@@ -288,7 +299,7 @@ def train(
         "window_frames": window,  # as trained: at most --window-s, never longer than the longest clip
         "final_train_loss": train_loss,
         "held_out_loss": val_loss if math.isfinite(val_loss) else None,  # None: no clip was held out
-        "training_clips": len(training),
+        "training_clips": len(lengths) - len(unwindowed),  # those that gave windows
         "held_out_clips": len(held_out),
         # where it comes from: the clips as named to train (their last path part: no folder of the user's
         # goes out with a model shared), less those excluded, when, by which version
@@ -312,7 +323,11 @@ def train(
     metadata.update(calibrate(model, val_motions[:: max(1, len(val_motions) // 300)]))
     save_model(output, model, force=force)
     measured = (
-        f"held-out loss {val_loss:.4f}" if math.isfinite(val_loss) else "no clip held out to measure it"
+        f"held-out loss {val_loss:.4f}"
+        if math.isfinite(val_loss)
+        else "no held-out clip as long as a window for a held-out loss"
+        if val_motions
+        else "no clip held out to measure it"
     )
     log.info(
         "wrote %s after %d step%s (%.1f min), %s; %s resumes it for a longer training (--resume), or can "
