@@ -199,6 +199,42 @@ def test_clips_shorter_than_a_training_window_are_said_and_not_counted(
     assert counts == {2.0: 2, 1.0: 3}
 
 
+def test_a_checkpoint_the_disk_cannot_take_leaves_the_model_written(
+    tmp_path: Path,
+    three_channel_bvh: Path,
+    caplog: pytest.LogCaptureFixture,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The disk full as the checkpoint was written: training ended in "internal error", with a temporary file
+    left and no model. Now it warns and goes on, and the model is written."""
+    import logging
+
+    from elastyle import OutputError, write_bvh
+    from elastyle.training import checkpoint
+    from elastyle.training.config import TrainConfig
+    from elastyle.training.loop import train
+
+    motion, layout = read_bvh(three_channel_bvh)
+    rotations = np.zeros((60, motion.skeleton.num_joints, 3))
+    rotations[:, 2, 0] = 0.5 * np.sin(np.arange(60) / 6.0)
+    translations = np.repeat(motion.translations[:1], 60, axis=0)
+    clips = tmp_path / "clips"
+    clips.mkdir()
+    write_bvh(clips / "loop_1.bvh", type(motion)(motion.skeleton, rotations, translations, 30.0), layout)
+
+    def full(path: object, data: bytes, force: bool = False) -> None:
+        raise OutputError(f"{path}: write failed: No space left on device")
+
+    monkeypatch.setattr(checkpoint, "write_bytes_atomic", full)
+    output = clips / "m.npz"
+    with caplog.at_level(logging.INFO, logger="elastyle"):
+        train([str(clips / "*.bvh")], str(output), TrainConfig(steps=2, window_s=1.0), progress=False)
+    assert load_model(output).metadata["steps"] == 2
+    assert sorted(p.name for p in clips.iterdir()) == ["loop_1.bvh", "m.npz"]
+    said = " ".join(r.getMessage() for r in caplog.records)
+    assert "the checkpoint is not written" in said and "no checkpoint to resume it from" in said
+
+
 def test_training_works_on_another_skeleton(tmp_path: Path, three_channel_bvh: Path, capsys) -> None:  # type: ignore[no-untyped-def]
     """A 3-channel skeleton of another naming scheme: train a few steps, then transfer with the model."""
     from elastyle import write_bvh

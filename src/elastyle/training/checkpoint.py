@@ -3,6 +3,7 @@ written atomically as training goes (and on Ctrl-C, which ends training after th
 
 from __future__ import annotations
 
+import io
 import json
 import signal
 import threading
@@ -13,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from elastyle.errors import ElastyleError
+from elastyle.io.files import write_bytes_atomic
 from elastyle.model.config import ModelConfig
 from elastyle.training.config import TrainConfig
 
@@ -109,10 +111,12 @@ def save_checkpoint(
     config: TrainConfig,
     clip_names: list[str],
 ) -> None:
-    """The training's state, and the settings it runs with (`checkpoint_config`), written atomically."""
+    """The training's state, and the settings it runs with (`checkpoint_config`), written atomically
+    (`io.files.write_bytes_atomic`: an `OutputError` naming the file where it cannot be, a full disk, and
+    no temporary file left)."""
     import torch
 
-    temporary = path.with_suffix(".tmp")
+    buffer = io.BytesIO()
     torch.save(
         {
             "network": network.state_dict(),
@@ -122,6 +126,6 @@ def save_checkpoint(
             "train_config": json.dumps(asdict(config)),
             "clip_names": clip_names,
         },
-        temporary,
+        buffer,
     )
-    temporary.replace(path)
+    write_bytes_atomic(path, buffer.getvalue(), force=True)
