@@ -76,7 +76,8 @@ def _print_model_info(path: str) -> None:
     if "steps" in metadata:
         print(
             f"  trained:  {metadata['steps']} steps in {metadata.get('training_minutes', 0):g} min on "
-            f"{metadata.get('training_clips', '?')} clips, {metadata.get('held_out_clips', '?')} held out"
+            f"{metadata.get('training_clips', '?')} clip{'' if metadata.get('training_clips') == 1 else 's'}, "
+            f"{metadata.get('held_out_clips', '?')} held out"
         )
     if metadata.get("data"):  # models trained since these were recorded
         excluded = f" less {', '.join(metadata['excluded'])}" if metadata.get("excluded") else ""
