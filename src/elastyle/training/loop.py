@@ -122,8 +122,9 @@ def train(
         shortest = max(min(unwindowed), kernel)
         log.warning(
             "note: %d of the %d training clips are shorter than the %.2f s windows (the shortest %.2f s) and are "
-            "not trained on; --window-s %.2f trains on every one (--recipe shipped: 2 s windows)",
+            "not trained on; --window-s %.2f trains on every one%s",
             len(unwindowed), len(lengths), window / fps, min(unwindowed) / fps, math.floor(100 * shortest / fps) / 100,
+            " (--recipe shipped: 2 s windows)" if window / fps > 2 else "",
         )  # fmt: skip
     train_norm = [((f - mean) / std).astype(np.float32) for f in train_features]
     val_norm = [((f - mean) / std).astype(np.float32) for f in val_features if f.shape[0] >= window]
