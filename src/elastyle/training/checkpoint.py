@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import io
 import json
+import logging
 import signal
 import threading
 from collections.abc import Iterator
@@ -13,10 +14,12 @@ from dataclasses import asdict, fields
 from pathlib import Path
 from typing import Any
 
-from elastyle.errors import ElastyleError
+from elastyle.errors import ElastyleError, OutputError
 from elastyle.io.files import write_bytes_atomic
 from elastyle.model.config import ModelConfig
 from elastyle.training.config import TrainConfig
+
+log = logging.getLogger(__name__)
 
 
 def read_checkpoint(path: str) -> dict[str, Any]:
@@ -110,10 +113,12 @@ def save_checkpoint(
     elapsed_s: float,
     config: TrainConfig,
     clip_names: list[str],
-) -> None:
+    required: bool = True,
+) -> bool:
     """The training's state, and the settings it runs with (`checkpoint_config`), written atomically
-    (`io.files.write_bytes_atomic`: an `OutputError` naming the file where it cannot be, a full disk, and
-    no temporary file left)."""
+    (`io.files.write_bytes_atomic`: no temporary file left where it cannot be, a full disk). Where it cannot
+    be: an `OutputError` naming the file if `required` (what an interrupted training leaves), else a
+    warning, the training going on without it. Whether it was written."""
     import torch
 
     buffer = io.BytesIO()
@@ -128,4 +133,11 @@ def save_checkpoint(
         },
         buffer,
     )
-    write_bytes_atomic(path, buffer.getvalue(), force=True)
+    try:
+        write_bytes_atomic(path, buffer.getvalue(), force=True)
+    except OutputError as error:
+        if required:
+            raise
+        log.warning("warning: the checkpoint is not written (%s); training goes on without it", error)
+        return False
+    return True

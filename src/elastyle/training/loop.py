@@ -17,14 +17,13 @@ import time
 from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from elastyle import __version__
 from elastyle.core.body import centimetres_per_unit
 from elastyle.core.mirror import mirror
-from elastyle.errors import ElastyleError, OutputError, SkeletonMismatchError
+from elastyle.errors import ElastyleError, SkeletonMismatchError
 from elastyle.io.dataset import find_clips, read_up, split_held_out
 from elastyle.model.autoencoder import Autoencoder
 from elastyle.model.depth import DEFAULT_WARN_CM, calibrate
@@ -264,7 +263,9 @@ def train(
                 bar.set_postfix(shown, refresh=False)
             if step % config.checkpoint_every == 0:
                 spent = elapsed_before + time.perf_counter() - started
-                saved = _checkpointed(checkpoint_path, network, optimizer, step, spent, config, clip_names)
+                saved = save_checkpoint(
+                    checkpoint_path, network, optimizer, step, spent, config, clip_names, required=False
+                )
                 if saved and (bar is None or bar.disable):  # no bar (not a terminal): a line per checkpoint
                     held = f", held-out {val_loss:.4f}" if math.isfinite(val_loss) else ""
                     log.info(
@@ -276,11 +277,11 @@ def train(
     if bar is not None:
         bar.close()
     elapsed = elapsed_before + time.perf_counter() - started
-    if stop.asked:  # the checkpoint is what an interrupted training leaves: it must be written
-        save_checkpoint(checkpoint_path, network, optimizer, step, elapsed, config, clip_names)
-        checkpointed = True
-    else:  # at the end the model is what counts: written even where its checkpoint cannot be
-        checkpointed = _checkpointed(checkpoint_path, network, optimizer, step, elapsed, config, clip_names)
+    # the checkpoint is what an interrupted training leaves, so it must be written; at the end the model is
+    # what counts, written even where its checkpoint cannot be
+    checkpointed = save_checkpoint(
+        checkpoint_path, network, optimizer, step, elapsed, config, clip_names, required=stop.asked
+    )
     if stop.asked:
         budget = f"--minutes {config.minutes:g}" if config.minutes is not None else f"--steps {config.steps}"
         # the same clips, read the same way, into the same file
@@ -353,21 +354,3 @@ def train(
     if step == resumed_at:
         log.warning("warning: %s: no training step was taken (the budget was spent before this run)", output)
     return model
-
-
-def _checkpointed(
-    path: Path,
-    network: Any,
-    optimizer: Any,
-    step: int,
-    elapsed_s: float,
-    config: TrainConfig,
-    clip_names: list[str],
-) -> bool:
-    """`save_checkpoint`, or where it cannot be written (a full disk) a warning, the training going on."""
-    try:
-        save_checkpoint(path, network, optimizer, step, elapsed_s, config, clip_names)
-    except OutputError as error:
-        log.warning("warning: the checkpoint is not written (%s); training goes on without it", error)
-        return False
-    return True
