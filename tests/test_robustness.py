@@ -249,6 +249,13 @@ def test_model_files_through_the_cli(tmp_path: Path, dataset_clips: list[ClipRef
         result = _cli("transfer", walk, "--style", walk, "-o", str(tmp_path / "o.bvh"), "--model", str(model))
         assert result.returncode == 1 and message in result.stderr, result.stderr
         assert "Traceback" not in result.stderr
+    # a checkpoint (here one that is not even an archive) is named as one, by `info` and `transfer` alike
+    checkpoint = tmp_path / "m.npz.ckpt"
+    checkpoint.write_text("an unfinished training")
+    for command in (("info",), ("transfer", walk, "--style", walk, "-o", str(tmp_path / "o.bvh"), "--model")):
+        result = _cli(*command, str(checkpoint))
+        assert result.returncode == 1 and "a training checkpoint, not a model" in result.stderr, result.stderr
+        assert "Traceback" not in result.stderr
 
 
 def test_skeleton_mismatches_list_the_joints(tmp_path: Path, dataset_clips: list[ClipRef]) -> None:

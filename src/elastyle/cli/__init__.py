@@ -28,13 +28,7 @@ def _command_info(args: argparse.Namespace) -> int:
     from elastyle.core.body import centimetres_per_unit, standing_height
     from elastyle.io.dataset import find_clips
 
-    for path in args.clip:
-        if path.lower().endswith(".ckpt"):
-            raise UsageError(
-                f"{path}: a training checkpoint, not a model: `elastyle train CLIPS -o MODEL.npz --resume {path}` "
-                "continues it, and `elastyle info MODEL.npz` describes the model that writes"
-            )
-    models = [path for path in args.clip if path.lower().endswith(".npz")]
+    models = [path for path in args.clip if path.lower().endswith((".npz", ".ckpt"))]
     for path in models:
         _print_model_info(path)
     clips = [path for path in args.clip if path not in models]

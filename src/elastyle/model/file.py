@@ -556,6 +556,13 @@ def as_model(model: StyleModel | str | os.PathLike[str] | None) -> StyleModel:
     )
 
 
+def _checkpoint_error(path: Path) -> ModelError:
+    return ModelError(
+        f"{path}: a training checkpoint, not a model: `elastyle train CLIPS -o MODEL.npz --resume {path}` "
+        "continues it, and the model is the file it writes"
+    )
+
+
 def load_model(path: str | os.PathLike[str] | None = None) -> StyleModel:
     """Load a model file (the shipped pretrained model when `path` is None); `ModelError` if unusable."""
     if path is not None and not str(path).strip():
@@ -564,6 +571,8 @@ def load_model(path: str | os.PathLike[str] | None = None) -> StyleModel:
     problem = input_problem(path)
     if problem is not None:
         raise ModelError(f"{path}: {'no such model file' if problem == 'no such file' else problem}")
+    if path.suffix.lower() == ".ckpt":
+        raise _checkpoint_error(path)
     try:
         with np.load(path, allow_pickle=False) as archive:
             data = {key: archive[key] for key in archive.files}
@@ -571,11 +580,8 @@ def load_model(path: str | os.PathLike[str] | None = None) -> StyleModel:
         kind = "not an .npz archive" if isinstance(error, ValueError) else f"truncated or foreign: {error}"
         raise ModelError(f"{path}: not an elastyle model file ({kind})") from None
     if "format_version" not in data:
-        if Path(path).suffix.lower() == ".ckpt" or any(key.endswith("data.pkl") for key in data):
-            raise ModelError(
-                f"{path}: a training checkpoint, not a model: `elastyle train CLIPS -o MODEL.npz --resume {path}` "
-                "continues it, and the model is the file it writes"
-            )
+        if any(key.endswith("data.pkl") for key in data):
+            raise _checkpoint_error(path)
         raise ModelError(f"{path}: not an elastyle model file (no format_version)")
     version = int(data["format_version"])
     if version != FORMAT_VERSION:
