@@ -9,31 +9,88 @@ The public API:
     mirror, find_clips, forward_kinematics              data helpers
 """
 
-from elastyle.core.mirror import mirror
-from elastyle.core.motion import Motion
-from elastyle.core.skeleton import Skeleton, forward_kinematics
-from elastyle.errors import (
-    BvhError,
-    ClipTooShortError,
-    ConfigError,
-    DatasetError,
-    ElastyleError,
-    ModelError,
-    OutputError,
-    RestPoseError,
-    ResultError,
-    SkeletonMismatchError,
-    UsageError,
-)
-from elastyle.io.bvh_layout import BvhLayout
-from elastyle.io.bvh_write import write_bvh
-from elastyle.io.clip_write import write_clip
-from elastyle.io.dataset import find_clips
-from elastyle.io.dataset import read_clip as read_bvh  # a BVH or .glb file, also a path inside a zip archive
-from elastyle.model.file import load_model
-from elastyle.pipeline import TransferResult, transfer
-from elastyle.steps.config import TransferConfig
-from elastyle.steps.library import StyleLibrary, prepare_style
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from elastyle.core.mirror import mirror
+    from elastyle.core.motion import Motion
+    from elastyle.core.skeleton import Skeleton, forward_kinematics
+    from elastyle.errors import (
+        BvhError,
+        ClipTooShortError,
+        ConfigError,
+        DatasetError,
+        ElastyleError,
+        ModelError,
+        OutputError,
+        RestPoseError,
+        ResultError,
+        SkeletonMismatchError,
+        UsageError,
+    )
+    from elastyle.io.bvh_layout import BvhLayout
+    from elastyle.io.bvh_write import write_bvh
+    from elastyle.io.clip_write import write_clip
+    from elastyle.io.dataset import find_clips
+    from elastyle.io.dataset import read_clip as read_bvh  # a BVH or .glb file, also inside a zip
+    from elastyle.model.file import load_model
+    from elastyle.pipeline import TransferResult, transfer
+    from elastyle.steps.config import TransferConfig
+    from elastyle.steps.library import StyleLibrary, prepare_style
+
+
+# each public name's module and its name there, imported when the name is first used: `import elastyle` and
+# the command line's start load only what they use (and Ctrl-C at start-up is caught as any other)
+_PUBLIC = {
+    "mirror": ("elastyle.core.mirror", "mirror"),
+    "Motion": ("elastyle.core.motion", "Motion"),
+    "Skeleton": ("elastyle.core.skeleton", "Skeleton"),
+    "forward_kinematics": ("elastyle.core.skeleton", "forward_kinematics"),
+    **{
+        name: ("elastyle.errors", name)
+        for name in (
+            "BvhError",
+            "ClipTooShortError",
+            "ConfigError",
+            "DatasetError",
+            "ElastyleError",
+            "ModelError",
+            "OutputError",
+            "RestPoseError",
+            "ResultError",
+            "SkeletonMismatchError",
+            "UsageError",
+        )
+    },
+    "BvhLayout": ("elastyle.io.bvh_layout", "BvhLayout"),
+    "write_bvh": ("elastyle.io.bvh_write", "write_bvh"),
+    "write_clip": ("elastyle.io.clip_write", "write_clip"),
+    "find_clips": ("elastyle.io.dataset", "find_clips"),
+    "read_bvh": ("elastyle.io.dataset", "read_clip"),
+    "load_model": ("elastyle.model.file", "load_model"),
+    "TransferResult": ("elastyle.pipeline", "TransferResult"),
+    "transfer": ("elastyle.pipeline", "transfer"),
+    "TransferConfig": ("elastyle.steps.config", "TransferConfig"),
+    "StyleLibrary": ("elastyle.steps.library", "StyleLibrary"),
+    "prepare_style": ("elastyle.steps.library", "prepare_style"),
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _PUBLIC:
+        raise AttributeError(f"module 'elastyle' has no attribute {name!r}")
+    module, attribute = _PUBLIC[name]
+    value = getattr(importlib.import_module(module), attribute)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_PUBLIC})
+
 
 __all__ = [
     "BvhError",

@@ -16,9 +16,6 @@ from collections.abc import Sequence
 from contextlib import nullcontext
 from typing import NoReturn
 
-from threadpoolctl import threadpool_limits
-
-from elastyle.cli.options import add_units_flag
 from elastyle.errors import ElastyleError, UsageError
 
 log = logging.getLogger("elastyle")
@@ -153,6 +150,7 @@ UP_HELP = (
 
 
 def build_parser() -> _OneLineParser:
+    from elastyle.cli.options import add_units_flag
     from elastyle.io.dataset import READ_UPS
 
     parser = _OneLineParser(prog="elastyle", description="Zero-shot motion style transfer for BVH clips.")
@@ -212,6 +210,16 @@ def _interrupted(signum: int, frame: object) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:  # while the command's modules load (a command's own run answers it itself)
+        print("elastyle: interrupted", file=sys.stderr)
+        return 130
+
+
+def _main(argv: Sequence[str] | None) -> int:
+    from threadpoolctl import threadpool_limits
+
     parser = build_parser()
     args, unknown = parser.parse_known_args(argv)
     if unknown:  # named by the command's own parser, so the error points to its --help
