@@ -316,9 +316,86 @@ def test_a_skeleton_or_clip_that_cannot_be_is_refused_where_it_is_built(content:
     twice = (skeleton.names[0], *skeleton.names[:-1])
     with pytest.raises(ValueError, match=f"joint names must be unique: '{skeleton.names[0]}' names 2 joints"):
         elastyle.Skeleton(twice, skeleton.parents, skeleton.offsets)
-    for fps in (float("inf"), float("nan"), 0.0):
+    for fps in (float("inf"), float("nan"), 0.0, "30", None, True, np.array([30.0])):
         with pytest.raises(ValueError, match="fps must be a positive finite number"):
-            Motion(skeleton, content.rotations, content.translations, fps)
+            Motion(skeleton, content.rotations, content.translations, fps)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="fps must be a positive finite number, got 0"):
+        content.resample(0)
+    # names a BVH file cannot hold, a unit that is no length, End Sites of another skeleton
+    for name in ("", "  ", "Left\nArm"):
+        with pytest.raises(ValueError, match="joint names must be non-empty and on one line: joint 1"):
+            elastyle.Skeleton(
+                (skeleton.names[0], name, *skeleton.names[2:]), skeleton.parents, skeleton.offsets
+            )
+    for unit in (0, -1.0, float("nan"), float("inf"), "cm", True):
+        with pytest.raises(ValueError, match="unit_cm must be a positive finite number"):
+            elastyle.Skeleton(skeleton.names, skeleton.parents, skeleton.offsets, unit_cm=unit)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=r"end_sites must be \(22, 3\)"):
+        elastyle.Skeleton(skeleton.names, skeleton.parents, skeleton.offsets, end_sites=[[1.0, 2.0, 3.0]])
+    # values that are no real numbers are refused; whole numbers and half precision are read as float64
+    for dtype in (bool, complex, object):
+        with pytest.raises(ValueError, match=f"rotations must be real numbers, got {np.dtype(dtype)}"):
+            Motion(skeleton, content.rotations.astype(dtype), content.translations, content.fps)
+    whole = Motion(
+        skeleton, np.zeros(content.rotations.shape, int), np.rint(content.translations).astype(int), 30
+    )
+    half = Motion(skeleton, content.rotations.astype(np.float16), content.translations, content.fps)
+    assert whole.rotations.dtype == whole.translations.dtype == half.rotations.dtype == np.float64
+    with pytest.raises(ValueError, match="renamed takes one name per joint \\(22\\), got 1 names"):
+        content.renamed(["a"])
+
+
+def test_a_skeleton_is_immutable_so_an_output_can_share_it(
+    model, content: Motion, style_clip: Motion
+) -> None:  # type: ignore[no-untyped-def]
+    """Before, scaling an output's offsets in place (to metres) changed the content's skeleton too."""
+    own = elastyle.Skeleton(content.skeleton.names, content.skeleton.parents, content.skeleton.offsets.copy())
+    mine = Motion(own, content.rotations, content.translations, content.fps)  # (the fixtures' stay untouched)
+    output = transfer(mine, style_clip, model=model, strength=0).motion
+    assert output.skeleton is own
+    for array in (output.skeleton.offsets, output.skeleton.parents, output.skeleton.end_sites):
+        with pytest.raises(ValueError, match="read-only"):
+            array[...] = 0
+    offsets = np.ones((content.skeleton.num_joints, 3))
+    built = elastyle.Skeleton(content.skeleton.names, content.skeleton.parents, offsets)
+    offsets[0] = 5.0  # the caller's array stays the caller's
+    assert np.all(built.offsets == 1.0)
+    assert repr(model).startswith("StyleModel(") and len(repr(model)) < 200
+
+
+def test_helpers_say_what_they_take(model, content: Motion, style_clip: Motion, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(TypeError, match="mirror takes a Motion"):
+        elastyle.mirror("walk.bvh")  # type: ignore[arg-type]
+    skeleton = content.skeleton
+    with pytest.raises(ValueError, match=r"local_rotations must be \(T, 22, 3\), got \(22, 3\)"):
+        elastyle.forward_kinematics(skeleton, content.rotations[0], content.translations[0])
+    with pytest.raises(ValueError, match="joints must be indices from 0 to 21, got \\[-1\\]"):
+        elastyle.forward_kinematics(skeleton, content.rotations, content.translations, [-1])
+    # one clip's name as a string; names and flags of other types refused
+    assert prepare_style(model, style_clip, names="proud").names[0] == "proud"
+    with pytest.raises(ConfigError, match="style names must be strings"):
+        prepare_style(model, style_clip, names=[1])  # type: ignore[list-item]
+    with pytest.raises(ConfigError, match="mirror_style must be True or False, got 'no'"):
+        prepare_style(model, style_clip, mirror_style="no")  # type: ignore[arg-type]
+    # one path given as a string or Path is that path (a string had been read letter by letter: '/' first)
+    folder = tmp_path / "clips"
+    folder.mkdir()
+    write_bvh(folder / "walk.bvh", content.slice(0, 40))
+    for spec in (str(folder), folder):
+        assert [Path(clip.name).name for clip in elastyle.find_clips(spec)] == ["walk.bvh"]
+
+
+def test_clips_no_reader_takes_are_not_written(content: Motion, tmp_path: Path) -> None:
+    """A clip without frames, or a BVH of a skeleton with two roots: files that read back as errors were written."""
+    for name in ("empty.bvh", "empty.glb"):
+        with pytest.raises(BvhError, match=f"{name}: the clip has no frames; nothing written"):
+            write_clip(tmp_path / name, content.slice(0, 0))
+    skeleton = elastyle.Skeleton(["Hips", "Spine", "Prop"], [-1, 0, -1], [[0, 90, 0], [0, 10, 0], [50, 0, 0]])
+    two_roots = Motion(skeleton, np.zeros((3, 3, 3)), np.tile(skeleton.offsets, (3, 1, 1)), 30)
+    with pytest.raises(BvhError, match=r"this skeleton has 2 roots \(Hips, Prop\); nothing written"):
+        write_bvh(tmp_path / "two.bvh", two_roots)
+    write_clip(tmp_path / "two.glb", two_roots)  # glTF holds several roots
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["two.glb"]
 
 
 def test_a_style_clip_without_frames_is_too_short(model, content: Motion, style_clip: Motion) -> None:  # type: ignore[no-untyped-def]

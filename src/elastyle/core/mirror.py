@@ -116,6 +116,8 @@ def _symmetric_frames(
 
 def mirror(motion: Motion, reflections: FloatArray | None = None) -> Motion:
     """The clip mirrored left/right (see the module docstring); `SkeletonMismatchError` without L/R pairs."""
+    if not isinstance(motion, Motion):
+        raise TypeError(f"mirror takes a Motion (elastyle.read_bvh reads one), got {type(motion).__name__}")
     skeleton = motion.skeleton
     partner = check_mirrorable(skeleton)
     if reflections is None:

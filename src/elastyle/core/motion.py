@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
@@ -31,9 +32,18 @@ class Motion:
     fps: float
 
     def __post_init__(self) -> None:
-        for name in ("rotations", "translations"):  # lists of numbers as arrays
-            if not isinstance(getattr(self, name), np.ndarray):
-                object.__setattr__(self, name, np.asarray(getattr(self, name), dtype=np.float64))
+        for name in (
+            "rotations",
+            "translations",
+        ):  # lists of numbers as arrays, whole and half-precision as float64
+            values = getattr(self, name)
+            if not isinstance(values, np.ndarray):
+                values = np.asarray(values, dtype=np.float64)
+            if values.dtype.kind in "iu" or (values.dtype.kind == "f" and values.dtype.itemsize < 4):
+                values = values.astype(np.float64)
+            if values.dtype.kind != "f":
+                raise ValueError(f"{name} must be real numbers, got {values.dtype} values")
+            object.__setattr__(self, name, values)
         num_joints = self.skeleton.num_joints
         if self.rotations.ndim != 3 or self.rotations.shape[1:] != (num_joints, 3):
             raise ValueError(f"rotations must be (T, {num_joints}, 3), got {self.rotations.shape}")
@@ -41,8 +51,8 @@ class Motion:
             raise ValueError(
                 f"translations must match rotations {self.rotations.shape}, got {self.translations.shape}"
             )
-        if not (self.fps > 0 and np.isfinite(self.fps)):
-            raise ValueError(f"fps must be a positive finite number, got {self.fps}")
+        if isinstance(self.fps, bool) or not isinstance(self.fps, numbers.Real) or not 0 < self.fps < np.inf:
+            raise ValueError(f"fps must be a positive finite number, got {self.fps!r}")
 
     def __repr__(self) -> str:
         return f"Motion({self.num_frames} frames at {self.fps:g} fps, {self.skeleton!r})"
@@ -74,6 +84,9 @@ class Motion:
 
     def renamed(self, names: Sequence[str]) -> Motion:
         """The same clip with its joints named `names` (J,): one skeleton read under another's names."""
+        if isinstance(names, str) or len(names) != self.skeleton.num_joints:
+            count = "a string" if isinstance(names, str) else f"{len(names)} names"
+            raise ValueError(f"renamed takes one name per joint ({self.skeleton.num_joints}), got {count}")
         return Motion(replace(self.skeleton, names=tuple(names)), self.rotations, self.translations, self.fps)
 
     def slice(self, start: int, stop: int) -> Motion:
@@ -121,6 +134,8 @@ class Motion:
 
     def resample(self, fps: float) -> Motion:
         """The same clip at another frame rate; the duration stays (up to one frame)."""
+        if isinstance(fps, bool) or not isinstance(fps, numbers.Real) or not 0 < fps < np.inf:
+            raise ValueError(f"fps must be a positive finite number, got {fps!r}")
         if abs(fps - self.fps) < 1e-9:
             return self
         num_frames = max(1, int(round((self.num_frames - 1) * fps / self.fps)) + 1)

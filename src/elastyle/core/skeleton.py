@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numbers
 import re
 from collections import Counter
 from collections.abc import Sequence
@@ -37,7 +38,8 @@ class Skeleton:
     end_sites: (J, 3) End Site offset of each joint (NaN where the joint has none).
     unit_cm: centimetres per file unit where the user or the file format stated the unit (`--units`; glTF:
              metres); None: guessed from the body's height (`core.body.centimetres_per_unit`).
-    A skeleton is immutable: lookups derived from it (pelvis, mirror pairs, limbs) are computed once.
+    A skeleton is immutable (its arrays are read-only copies): lookups derived from it (pelvis, mirror pairs,
+    limbs) are computed once.
     """
 
     names: tuple[str, ...]
@@ -49,7 +51,7 @@ class Skeleton:
     def __post_init__(self) -> None:
         # lists of names and numbers as a tuple and arrays, as `Motion` takes lists
         object.__setattr__(self, "names", tuple(self.names))
-        object.__setattr__(self, "offsets", np.asarray(self.offsets, dtype=np.float64))
+        object.__setattr__(self, "offsets", np.array(self.offsets, dtype=np.float64))
         parents = np.asarray(self.parents)
         if parents.dtype.kind not in "iu":
             whole = parents.dtype.kind == "f" and np.all(
@@ -61,6 +63,11 @@ class Skeleton:
         num_joints = len(self.names)
         if not all(isinstance(name, str) for name in self.names):
             raise ValueError("joint names must be strings")
+        unnamed = [j for j, name in enumerate(self.names) if not name.strip() or "\n" in name or "\r" in name]
+        if unnamed:
+            raise ValueError(
+                f"joint names must be non-empty and on one line: joint {unnamed[0]} is {self.names[unnamed[0]]!r}"
+            )
         repeated = [name for name, count in Counter(self.names).items() if count > 1]
         if repeated:
             raise ValueError(
@@ -77,8 +84,23 @@ class Skeleton:
             raise ValueError(
                 f"offsets must be finite numbers: joint {self.names[joint]!r} has {self.offsets[joint]}"
             )
-        if self.end_sites.shape != (num_joints, 3):
-            object.__setattr__(self, "end_sites", np.full((num_joints, 3), np.nan))
+        end_sites = np.array(self.end_sites, dtype=np.float64)
+        if end_sites.size == 0:  # none given
+            end_sites = np.full((num_joints, 3), np.nan)
+        if end_sites.shape != (num_joints, 3):
+            raise ValueError(
+                f"end_sites must be ({num_joints}, 3) (NaN where a joint has none), got {end_sites.shape}"
+            )
+        object.__setattr__(self, "end_sites", end_sites)
+        unit = self.unit_cm
+        if unit is not None and (
+            isinstance(unit, bool) or not isinstance(unit, numbers.Real) or not (0 < unit < np.inf)
+        ):
+            raise ValueError(
+                f"unit_cm must be a positive finite number of centimetres per unit, or None; got {unit!r}"
+            )
+        for array in (self.parents, self.offsets, self.end_sites):
+            array.setflags(write=False)
 
     @property
     def num_joints(self) -> int:
@@ -250,6 +272,12 @@ def forward_kinematics(
     joints: only these joints (and their ancestors) are computed, the others are NaN; None: every joint.
     Returns world rotation matrices (T, J, 3, 3) and world positions (T, J, 3) in file units.
     """
+    expected = (skeleton.num_joints, 3)
+    for name, values in (("local_rotations", local_rotations), ("local_translations", local_translations)):
+        if np.ndim(values) != 3 or np.shape(values)[1:] != expected:
+            raise ValueError(f"{name} must be (T, {expected[0]}, 3), got {np.shape(values)}")
+    if joints is not None and np.any((np.asarray(joints) < 0) | (np.asarray(joints) >= skeleton.num_joints)):
+        raise ValueError(f"joints must be indices from 0 to {skeleton.num_joints - 1}, got {list(joints)}")
     needed = skeleton.with_ancestors(joints)
     num_frames = local_rotations.shape[0]
     world_matrices = np.full((num_frames, skeleton.num_joints, 3, 3), np.nan)

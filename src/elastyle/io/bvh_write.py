@@ -163,7 +163,7 @@ def write_bvh(
             f"{path}: write_bvh writes BVH text; for binary glTF name the file .glb and use "
             "elastyle.write_clip(path, motion)"
         )
-    refuse_non_finite(path, motion)
+    refuse_unwritable(path, motion)
     write_bytes_atomic(path, bvh_bytes(motion, layout_for(path, motion, layout)), force=force, inputs=inputs)
 
 
@@ -194,10 +194,20 @@ def check_clip_argument(motion: object) -> None:
         raise TypeError(f"the clip to write must be a Motion, got {type(motion).__name__}{hint}")
 
 
-def refuse_non_finite(path: str | os.PathLike[str], motion: Motion) -> None:
-    """A `BvhError` naming `path` when the clip to be written there holds NaN or infinite values."""
+def refuse_unwritable(path: str | os.PathLike[str], motion: Motion) -> None:
+    """A `BvhError` naming `path` when the clip to be written there has no frames or holds NaN or infinite
+    values, or (a BVH file) its skeleton has more than one root: files no reader takes."""
+    if motion.num_frames == 0:
+        raise BvhError(str(path), "the clip has no frames; nothing written")
     if not motion.is_finite():
         raise BvhError(str(path), "the clip holds NaN or infinite values; nothing written")
+    roots = [name for name, parent in zip(motion.skeleton.names, motion.skeleton.parents) if parent < 0]
+    if len(roots) > 1 and Path(path).suffix.lower() not in (".glb", ".gltf"):
+        raise BvhError(
+            str(path),
+            f"a BVH file holds one hierarchy, this skeleton has {len(roots)} roots ({', '.join(roots[:4])}); "
+            "nothing written (parent them under one joint, or write .glb)",
+        )
 
 
 def _write_joint(

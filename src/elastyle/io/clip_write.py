@@ -8,7 +8,7 @@ from pathlib import Path
 from elastyle.core.motion import Motion
 from elastyle.errors import UsageError
 from elastyle.io.bvh_layout import BvhLayout
-from elastyle.io.bvh_write import bvh_bytes, check_clip_argument, layout_for, refuse_non_finite
+from elastyle.io.bvh_write import bvh_bytes, check_clip_argument, layout_for, refuse_unwritable
 from elastyle.io.files import write_bytes_atomic
 
 OUTPUT_SUFFIXES = (".bvh", ".glb")
@@ -25,10 +25,10 @@ def check_output_format(path: str | os.PathLike[str]) -> None:
 
 def clip_bytes(path: str | os.PathLike[str], motion: Motion, layout: BvhLayout | None = None) -> bytes:
     """The file `path` would hold for `motion`: BVH (in `layout`) or binary glTF, by the name's extension.
-    Refuses non-finite values, naming `path`."""
+    Refuses what no reader takes (`refuse_unwritable`), naming `path`."""
     check_clip_argument(motion)
     check_output_format(path)
-    refuse_non_finite(path, motion)
+    refuse_unwritable(path, motion)
     if Path(path).suffix.lower() == ".glb":
         from elastyle.io.gltf_write import glb_bytes
 

@@ -151,13 +151,16 @@ def _archive_clips(archive: str, inner: str) -> list[ClipRef]:
     return [ClipRef(f"{archive}/{m}", archive, m) for m in sorted(members)]
 
 
-def find_clips(specs: Iterable[str | os.PathLike[str]], pattern: str | None = None) -> list[ClipRef]:
-    """Every BVH clip that files, folders, globs or zip archives name, sorted within each spec.
+def find_clips(
+    specs: str | os.PathLike[str] | Iterable[str | os.PathLike[str]], pattern: str | None = None
+) -> list[ClipRef]:
+    """Every BVH clip that files, folders, globs or zip archives name (one, or a list of them), sorted
+    within each spec.
 
     `pattern` (a glob on the file name, e.g. '*walk_normal*') filters the result.
     """
     clips: list[ClipRef] = []
-    for raw in specs:
+    for raw in [specs] if isinstance(specs, (str, os.PathLike)) else specs:
         spec = str(raw)
         archive = _split_archive(spec)
         if archive is not None:

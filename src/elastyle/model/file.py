@@ -69,6 +69,13 @@ class StyleModel:
     def skeleton(self) -> Skeleton:
         return self.features.skeleton
 
+    def __repr__(self) -> str:
+        shape = self.config
+        return (
+            f"StyleModel({shape.latent_channels} latent channels, {shape.hidden_channels} hidden, "
+            f"{shape.kernel_frames}-frame kernel, {self.fps:g} fps, {self.skeleton!r})"
+        )
+
     @cached_property
     def encoding_fingerprint(self) -> str:
         """A digest of everything encoding reads (normalisation, reference rotations, encoder weights, shape,

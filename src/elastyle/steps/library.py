@@ -154,10 +154,17 @@ def prepare_style(
 ) -> StyleLibrary:
     """Encode a style library: every clip, plus its mirror when the skeleton allows, and with
     `reverse_style` each of those played backwards. model: a `StyleModel` or a model file's path (None: the
-    shipped model); motions: one clip or several; names: one per clip (style0, style1, ... by default)."""
+    shipped model); motions: one clip or several; names: one per clip (style0, style1, ... by default; one
+    clip's name may be given as a string)."""
     model = as_model(model)
     motions = [motions] if isinstance(motions, Motion) else list(motions)
     _check_style_clips(motions)
+    for flag, value in (("mirror_style", mirror_style), ("reverse_style", reverse_style)):
+        if not isinstance(value, (bool, np.bool_)):
+            raise ConfigError(f"{flag} must be True or False, got {value!r}")
+    names = [names] if isinstance(names, str) else names
+    if names is not None and not all(isinstance(name, str) for name in names):
+        raise ConfigError(f"style names must be strings, got {list(names)!r:.80}")
     if names is not None and len(names) != len(motions):
         raise ConfigError(
             f"{len(names)} style name(s) for {len(motions)} style clip(s): give one name per clip"
