@@ -23,6 +23,9 @@ def _angle(u: FloatArray, v: FloatArray) -> FloatArray:
 
 
 SOFT_FROM = 0.95  # a hip-ankle distance past this share of the straight leg's length is reached softly
+# a knee bent less than this (radians, 180 degrees less its angle) bends, where the IK bends it, in the clip's
+# knee plane rather than its own (eased in from straight): the plane of a near-straight leg is noise
+OWN_PLANE_FROM = np.radians(6.0)
 
 
 def _soft_reach(wanted: FloatArray, own: FloatArray, thigh: FloatArray, shin: FloatArray) -> FloatArray:
@@ -56,8 +59,11 @@ def leg_ik(
 
     world_rotations: (T, J, 3, 3); positions: (T, J, 3); parents: (F,) each upper leg's parent (-1: none);
     chains: (F, 3) upper leg, knee, ankle; targets: (T, F, 3).
-    The knee bends in its own plane (normal (ankle - hip) x (knee - hip); a straight leg borrows the clip's
-    mean normal in the upper leg's frame) to get the hip-target distance by the law of cosines, the leg
+    The knee bends in its own plane (normal (ankle - hip) x (knee - hip)), a near-straight one in the clip's
+    (its frames' normals in the upper leg's frame summed, each as long as its knee is bent, so the bent
+    frames decide), eased between the two up to a bend of `OWN_PLANE_FROM`: a straight leg's own plane is
+    whichever way the knee strays by a hair, and a knee bent in it could bend backwards for a few frames. The
+    IK gets the hip-target distance by the law of cosines, the leg
     turns back in that plane onto its old hip-ankle line, then swings that line onto the target (minimal
     arc). The ankle keeps its world rotation, so the foot keeps its orientation. Targets near the straight
     leg's reach are reached softly (`_soft_reach`), under 2 % of the leg short.
@@ -66,24 +72,28 @@ def leg_ik(
         world_rotations[:, chains[:, i]] for i in range(3)
     )  # (T, F, 3, 3)
     hip, knee, ankle = (positions[:, chains[:, i]] for i in range(3))  # (T, F, 3)
-    normal = np.cross(ankle - hip, knee - hip)  # (T, F, 3)
+    normal = np.cross(ankle - hip, knee - hip)  # (T, F, 3), |hip-ankle| |hip-knee| sin(the hip's angle) long
     size = lengths(normal)
-    bent = size > 1e-6 * lengths(ankle - hip) * lengths(knee - hip)  # (T, F)
-    normal = normal / np.maximum(size, 1e-300)[..., None]
     local_normal = np.einsum("tfji,tfj->tfi", upper_world, normal)  # (T, F, 3) in the upper leg's frame
+    mean_normal = np.sum(local_normal, axis=0)  # (F, 3)
     across = np.cross(np.einsum("fj,fji->fi", (knee - hip)[0], upper_world[0]), [1e-3, 1e-2, 1.0])  # (F, 3)
-    mean_normal = np.where(
-        np.any(bent, axis=0)[:, None], np.sum(local_normal * bent[..., None], axis=0), across
-    )
+    straight = lengths(mean_normal) <= 1e-6 * np.sum(lengths(ankle - hip) * lengths(knee - hip), axis=0)
+    mean_normal = np.where(straight[:, None], across, mean_normal)  # a leg straight throughout: any plane
     mean_normal = mean_normal / np.maximum(lengths(mean_normal, keepdims=True), 1e-300)  # (F, 3)
-    if frames is not None:  # the clip's mean knee plane read, the rest at these frames only
-        upper_world, knee_world, ankle_world, hip, knee, ankle, normal, targets = (
+    if frames is not None:  # the clip's knee plane read, the rest at these frames only
+        upper_world, knee_world, ankle_world, hip, knee, ankle, normal, size, targets = (
             values[frames]
-            for values in (upper_world, knee_world, ankle_world, hip, knee, ankle, normal, targets)
+            for values in (upper_world, knee_world, ankle_world, hip, knee, ankle, normal, size, targets)
         )
-        bent = bent[frames]
         world_rotations = world_rotations[frames]
-    axes = np.where(bent[..., None], normal, np.einsum("tfij,fj->tfi", upper_world, mean_normal))  # (T, F, 3)
+    own = np.clip((np.pi - _angle(hip - knee, ankle - knee)) / OWN_PLANE_FROM, 0.0, 1.0)[
+        ..., None
+    ]  # (T, F, 1)
+    own = own * own * (3 - 2 * own)
+    axes = own * normal / np.maximum(size, 1e-300)[..., None] + (1 - own) * np.einsum(
+        "tfij,fj->tfi", upper_world, mean_normal
+    )
+    axes = axes / np.maximum(lengths(axes, keepdims=True), 1e-300)  # (T, F, 3)
 
     thigh, shin = lengths(knee - hip), lengths(ankle - knee)  # (T, F)
     distance = _soft_reach(lengths(targets - hip), lengths(ankle - hip), thigh, shin)
