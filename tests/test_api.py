@@ -385,6 +385,31 @@ def test_helpers_say_what_they_take(model, content: Motion, style_clip: Motion, 
         assert [Path(clip.name).name for clip in elastyle.find_clips(spec)] == ["walk.bvh"]
 
 
+def test_the_files_macos_writes_beside_clips_are_not_clips(content: Motion, tmp_path: Path) -> None:
+    """A folder or zip made on a Mac holds `._walk.bvh` (and, zipped, `__MACOSX/...`) beside `walk.bvh`:
+    they were read as clips, and a style library or a batch failed on 'binary data'."""
+    import zipfile
+
+    folder = tmp_path / "clips"
+    (folder / "__MACOSX").mkdir(parents=True)
+    write_bvh(folder / "walk.bvh", content.slice(0, 40))
+    for metadata in (
+        folder / "._walk.bvh",
+        folder / "__MACOSX" / "._walk.bvh",
+        folder / "__MACOSX" / "walk.bvh",
+    ):
+        metadata.write_bytes(b"\x00\x05\x16\x07\x00\x02\x00\x00Mac OS X")
+    (folder / "folder.bvh").mkdir()  # a folder named like a clip is no clip either
+    archive = tmp_path / "clips.zip"
+    with zipfile.ZipFile(archive, "w") as packed:
+        for path in sorted(folder.rglob("*")):
+            packed.write(path, path.relative_to(tmp_path))
+    for spec in (folder, archive, f"{folder}/**/*.bvh"):
+        found = elastyle.find_clips([spec])
+        assert [Path(clip.member or clip.name).name for clip in found] == ["walk.bvh"], spec
+        assert "__MACOSX" not in (found[0].member or found[0].name)
+
+
 def test_clips_no_reader_takes_are_not_written(content: Motion, tmp_path: Path) -> None:
     """A clip without frames, or a BVH of a skeleton with two roots: files that read back as errors were written."""
     for name in ("empty.bvh", "empty.glb"):

@@ -41,9 +41,15 @@ def _biped(name: str) -> str:
     return "Bip01 " + name.removesuffix("_L").removesuffix("_R") + side
 
 
+def _side_first(name: str) -> str:
+    side = "L " if name.endswith("_L") else "R " if name.endswith("_R") else ""
+    return side + name.removesuffix("_L").removesuffix("_R")
+
+
 SCHEMES = {
     "cmu": lambda n: CMU[n],
     "biped": _biped,
+    "side-first": _side_first,  # "L Clavicle": a side letter opening the name was not read as one
     "camel": lambda n: n.replace("_L", "L").replace("_R", "R"),
     "blender": lambda n: n.replace("_L", ".l").replace("_R", ".r"),
     "unnamed": None,
@@ -500,6 +506,25 @@ def test_the_models_skeleton_under_other_names_transfers_as_it_does(
     said = [r.getMessage() for r in caplog.records if r.getMessage().startswith("note: proud.bvh:")]
     assert len(said) == 1 and "joint names differ from the model's" in said[0]
     assert said[0] in renamed.explain["notes"]
+
+
+def test_any_one_joint_renamed_transfers_as_the_models_skeleton_does(
+    walk: Motion, dataset_clips: list[ClipRef]
+) -> None:
+    """One joint under another name, the others the model's: read joint by joint. Before, a renamed
+    shoulder, upper or lower arm on one side was refused: its partner then read as a centre joint, and the
+    arms were found starting below it, on both sides."""
+    from elastyle.pipeline import transfer
+
+    model = load_model()
+    style = clip_named(dataset_clips, "dataset-2_walk_active_010").read()[0]
+    content = walk.slice(0, 90)
+    own = transfer(content, style, model=model).motion.positions()
+    for joint in range(1, content.skeleton.num_joints):
+        names = list(content.skeleton.names)
+        names[joint] = "Renamed"
+        renamed = transfer(content.renamed(names), style, model=model).motion
+        np.testing.assert_allclose(renamed.positions(), own, atol=1e-6, err_msg=content.skeleton.names[joint])
 
 
 @pytest.mark.parametrize("scheme", ["cmu"])

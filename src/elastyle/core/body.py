@@ -303,17 +303,25 @@ def _limbs_of(skeleton: Skeleton) -> Limbs:
     roots: list[int] = []
     if spine:
         below_spine = set(_subtree_depths(skeleton, spine[0]))
-        # arm roots: sided joints below the spine whose parent is a centre joint
+        # arm roots: sided joints below the spine whose parent is a centre joint, the topmost of each chain (a
+        # joint renamed on one side only is a centre joint: the sided ones below it start no arm of their own)
+        sided_below_centre = {
+            j for j in below_spine if partner[j] != j and partner[skeleton.parents[j]] == skeleton.parents[j]
+        }
         roots = [
             j
-            for j in sorted(below_spine)
-            if partner[j] != j and partner[skeleton.parents[j]] == skeleton.parents[j]
+            for j in sorted(sided_below_centre)
+            if not any(a in sided_below_centre for a in skeleton.with_ancestors([j]) if a != j)
         ]
-        if not roots:  # unnamed: the first branching below the spine with mirror-image chains
-            for j in sorted(below_spine):
-                roots = _alike_pair(skeleton, list(skeleton.children(j)))
-                if roots:
-                    break
+        # the first branching below the spine with mirror-image chains, where those hold every root the names
+        # found: unnamed arms, and arms whose top joint is renamed on one side (its partner then reads as a
+        # centre joint, and the arms as starting below both); a one-armed character's fingers hold no root
+        for j in sorted(below_spine):
+            alike = _alike_pair(skeleton, list(skeleton.children(j)))
+            if alike:
+                held = set(_subtree_depths(skeleton, alike[0])) | set(_subtree_depths(skeleton, alike[1]))
+                roots = alike if set(roots) <= held else roots
+                break
         if not roots:  # one arm (a one-armed character): a chain named for a side, off a joint that is not
             roots = [
                 j

@@ -22,7 +22,7 @@ _SIDE_PATTERNS = (
     re.compile(r"^(l|r)[_.]", re.IGNORECASE),
     re.compile(r"(left|right)", re.IGNORECASE),
     re.compile(r"^(L|R)(?=[A-Z])"),  # CMU: LHipJoint, RThumb
-    re.compile(r"(?<=\s)(L|R)(?=\s|$)"),  # 3ds Max biped: "Bip01 L Thigh"
+    re.compile(r"(?:^|(?<=\s))(L|R)(?=\s|$)"),  # 3ds Max biped: "Bip01 L Thigh", also "L Thigh"
     re.compile(r"(?<=[a-z])(L|R)$"),  # camel-case suffix: UpperLegL
 )
 _OPPOSITE_SIDE = {"l": "r", "r": "l", "left": "right", "right": "left"}

@@ -130,6 +130,13 @@ def default_data_path() -> Path | None:
 CLIP_SUFFIXES = (".bvh", ".glb")  # what a folder's clips are
 
 
+def _is_clip_name(name: str, suffixes: tuple[str, ...] = CLIP_SUFFIXES) -> bool:
+    """Whether a path found in a folder, archive or glob names a clip: its suffix, and not the metadata macOS
+    writes beside each file (`._name.bvh`, and every file under `__MACOSX/` in a zip it makes)."""
+    parts = name.replace("\\", "/").split("/")
+    return name.lower().endswith(suffixes) and not parts[-1].startswith("._") and "__MACOSX" not in parts
+
+
 def _split_archive(spec: str) -> tuple[str, str] | None:
     """'a/b.zip/inner/x*.bvh' -> ('a/b.zip', 'inner/x*.bvh'); 'a/b.zip' -> ('a/b.zip', '')."""
     parts = Path(spec).parts
@@ -142,7 +149,7 @@ def _split_archive(spec: str) -> tuple[str, str] | None:
 
 def _archive_clips(archive: str, inner: str) -> list[ClipRef]:
     try:
-        members = [m for m in _open_zip(archive, os.getpid()).namelist() if m.lower().endswith(".bvh")]
+        members = [m for m in _open_zip(archive, os.getpid()).namelist() if _is_clip_name(m, (".bvh",))]
     except (zipfile.BadZipFile, OSError) as error:
         raise DatasetError(f"{archive}: not a readable zip archive ({error})") from None
     if inner:
@@ -167,12 +174,18 @@ def find_clips(
             found = _archive_clips(*archive)
         elif Path(spec).is_dir():
             found = [
-                ClipRef(str(p)) for p in sorted(Path(spec).rglob("*")) if p.suffix.lower() in CLIP_SUFFIXES
+                ClipRef(str(p))
+                for p in sorted(Path(spec).rglob("*"))
+                if _is_clip_name(str(p)) and p.is_file()
             ]
         elif Path(spec).exists():  # a file named with glob characters (walk[1].bvh) is that file
             found = [ClipRef(spec)]
         elif any(c in spec for c in "*?["):
-            found = [ClipRef(p) for p in sorted(glob.glob(spec, recursive=True)) if Path(p).is_file()]
+            found = [
+                ClipRef(p)
+                for p in sorted(glob.glob(spec, recursive=True))
+                if Path(p).is_file() and _is_clip_name(p, ("",))  # any suffix the glob asks for
+            ]
         else:
             raise DatasetError(f"{spec}: no such file, folder or archive")
         if pattern:
