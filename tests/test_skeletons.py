@@ -482,6 +482,13 @@ def test_units_stated_on_the_command_line_override_the_guess(tmp_path: Path, wal
     assert figures[False] != pytest.approx(stated)
     wrong = _cli("eval", str(path), "--content", str(path), "--style", str(path), "--units", "furlong")
     assert wrong.returncode == 2 and "--units" in wrong.stderr
+    # transfer states it for the style clips too (before, for the content alone: the style read as inches)
+    for units, guessed in (([], True), (["--units", "cm"], False)):
+        done = _cli(
+            "transfer", str(path), "--style", str(path), "-o", str(tmp_path / "o.bvh"), "--force", *units
+        )
+        assert done.returncode == 0, done.stderr
+        assert done.stderr.count("length unit guessed as in") == (2 if guessed else 0), done.stderr
 
 
 @pytest.mark.parametrize("scheme", list(SCHEMES))

@@ -46,7 +46,7 @@ class Job(NamedTuple):
     second: StyleLibrary | None
     second_weight: Schedule
     part_styles: dict[str, StyleLibrary]  # body part names -> the library whose manner they take
-    units: str | None  # the content clips' length unit as stated (`core.body.UNITS`), None: guessed
+    units: str | None  # the clips' length unit as stated (`core.body.UNITS`), None: guessed
     up: str  # how the content clips' up axis is read (`io.dataset.ClipRef.read`): workers elsewhere know it too
     force: bool
     explain: str | None  # a file for one content clip, or a folder (DIR/) for a record per output

@@ -277,6 +277,7 @@ def run_transfer(args: argparse.Namespace) -> int:
             use_cache=not args.no_cache,
             check=check,
             reverse_style=config.reverse_style,
+            units=args.units,
         )
 
     try:

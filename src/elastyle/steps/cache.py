@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from elastyle.core.body import in_units
 from elastyle.core.motion import Motion
 from elastyle.errors import OutputError
 from elastyle.io.dataset import ClipRef, read_up
@@ -51,11 +52,16 @@ Note = tuple[int, str]  # a logging level and the text said at it
 
 
 def library_key(
-    model: StyleModel, clips: list[ClipRef], mirror_style: bool, reverse_style: bool = False
+    model: StyleModel,
+    clips: list[ClipRef],
+    mirror_style: bool,
+    reverse_style: bool = False,
+    units: str | None = None,
 ) -> str:
     reverse = ":backwards" if reverse_style else ""  # libraries without reversed clips keep their keys
+    unit = f":units-{units}" if units else ""  # and those of guessed units
     digest = hashlib.sha256(
-        f"v{FORMAT_VERSION}.{CACHE_VERSION}:{model.encoding_fingerprint}:{mirror_style}{reverse}:up-{read_up()}".encode()
+        f"v{FORMAT_VERSION}.{CACHE_VERSION}:{model.encoding_fingerprint}:{mirror_style}{reverse}:up-{read_up()}{unit}".encode()
     )
     for clip in clips:
         digest.update(clip.name.encode())
@@ -70,12 +76,14 @@ def load_library(
     use_cache: bool = True,
     check: Callable[[ClipRef, Motion], list[Note]] | None = None,
     reverse_style: bool = False,
+    units: str | None = None,
 ) -> StyleLibrary:
-    """The encoded library of `clips`, from the cache when it holds them, else read, checked by `check`
+    """The encoded library of `clips` (read in the length unit `units` states, guessed for None: `--units`),
+    from the cache when it holds them, else read, checked by `check`
     (which raises for a clip that cannot be used, and returns the notes on how each clip is read: another
     naming, turned axes, another frame rate), encoded and cached. The notes are logged either way: a
     library from the cache says them again."""
-    path = cache_folder() / f"{library_key(model, clips, mirror_style, reverse_style)}.npz"
+    path = cache_folder() / f"{library_key(model, clips, mirror_style, reverse_style, units)}.npz"
     if use_cache and path.exists():
         try:
             with np.load(path, allow_pickle=False) as archive:
@@ -102,7 +110,7 @@ def load_library(
             return replace(library, notes=tuple(text for _, text in notes))
         except Exception:  # empty, cut short or garbled in any way: only a cache, so a miss
             log.debug("unreadable cache entry %s: encoding again", path)
-    motions = [clip.read()[0] for clip in clips]
+    motions = [in_units(clip.read()[0], units) for clip in clips]
     notes = [note for clip, motion in zip(clips, motions) for note in (check(clip, motion) if check else [])]
     _say(notes)
     library = prepare_style(model, motions, [c.name for c in clips], mirror_style, reverse_style)
