@@ -340,6 +340,22 @@ def test_a_name_the_archive_lacks_is_answered_with_its_nearest_and_a_batch_names
     assert "--skip-existing" in capsys.readouterr().err
 
 
+def test_info_on_a_folder_describes_every_clip_it_can_read(
+    walk: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """An unreadable clip in a folder is named and the others are still described (info stopped at it)."""
+    from elastyle.io.dataset import read_clip
+
+    motion, layout = read_clip(walk)
+    for name in ("a.bvh", "c.bvh"):
+        write_bvh(tmp_path / name, motion.slice(0, 10), layout)
+    (tmp_path / "b.bvh").write_text("")
+    assert main(["info", str(tmp_path)]) == 1
+    said = capsys.readouterr()
+    assert f"{tmp_path / 'a.bvh'}\n" in said.out and f"{tmp_path / 'c.bvh'}\n" in said.out
+    assert "b.bvh: empty file" in said.err and "1 of 3 clips could not be read" in said.err
+
+
 def test_info_describes_a_model_file(capsys: pytest.CaptureFixture[str]) -> None:
     """`elastyle info MODEL.npz` prints the model's shape, skeleton, training and held-out figures (a model
     file read as a clip was refused as binary data)."""

@@ -789,7 +789,7 @@ def test_a_resumed_batch_with_explain_records_leaves_half_written_pairs_and_says
     tmp_path: Path, dataset_clips: list[ClipRef]
 ) -> None:
     """An output without its explain record was skipped without a word, and a record without its output
-    refused the whole batch."""
+    refused the whole batch; then it was counted as an output that exists, and the batch exited 0 without it."""
     names = ["dataset-2_walk_normal_005", "dataset-2_walk_normal_010", "dataset-2_walk_normal_015"]
     contents = _dataset_copies(tmp_path, dataset_clips, names)
     out, records = tmp_path / "out", tmp_path / "records"
@@ -802,10 +802,14 @@ def test_a_resumed_batch_with_explain_records_leaves_half_written_pairs_and_says
     (records / f"{names[2]}.json").unlink()
     kept = (out / f"{names[0]}.bvh").read_bytes(), (records / f"{names[1]}.json").read_bytes()
     result = _cli(*command, "--skip-existing")
-    assert result.returncode == 0, result.stderr
+    assert result.returncode == 1, result.stderr  # an output is missing still
     assert f"{out / names[0]}.bvh exists but {records / names[0]}.json does not" in result.stderr
     assert f"{records / names[1]}.json exists but {out / names[1]}.bvh does not" in result.stderr
-    assert "2 of 3 outputs exist and are skipped" in result.stderr
+    assert "1 of 3 outputs exist and are skipped" in result.stderr
+    assert result.stderr.strip().splitlines()[-1] == (
+        f"elastyle: error: 1 output(s) not written, their explain records existing without them "
+        f"({out / names[1]}.bvh): --force writes both anew"
+    )
     assert (out / f"{names[2]}.bvh").exists() and (records / f"{names[2]}.json").exists()
     assert kept == ((out / f"{names[0]}.bvh").read_bytes(), (records / f"{names[1]}.json").read_bytes())
 

@@ -29,8 +29,15 @@ def _command_info(args: argparse.Namespace) -> int:
     for path in models:
         _print_model_info(path)
     clips = [path for path in args.clip if path not in models]
-    for clip in find_clips(clips) if clips else ():
-        motion, layout = clip.read()
+    failed = 0
+    found = find_clips(clips) if clips else []
+    for clip in found:
+        try:
+            motion, layout = clip.read()
+        except ElastyleError as error:  # said, and the other clips described (exit 1 at the end)
+            print(f"elastyle: error: {error}", file=sys.stderr)
+            failed += 1
+            continue
         skeleton = motion.skeleton
         channel_counts = sorted({len(c) for c in layout.channels})
         print(f"{clip.name}")
@@ -48,7 +55,9 @@ def _command_info(args: argparse.Namespace) -> int:
             f"{'as its file states' if skeleton.unit_cm else 'guessed'} (the first frame spans {extent:.2f})"
         )
         print(f"  up:       +{layout.up.upper()}")
-    return 0
+    if failed and len(found) > 1:
+        print(f"elastyle: {failed} of {len(found)} clips could not be read", file=sys.stderr)
+    return 1 if failed else 0
 
 
 def _print_model_info(path: str) -> None:

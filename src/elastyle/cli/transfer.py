@@ -93,7 +93,9 @@ def add_transfer_command(commands: Any) -> None:
     parser.set_defaults(run=run_transfer)
 
 
-def _outputs(args: argparse.Namespace) -> tuple[list[str], list[Path]]:
+def _outputs(args: argparse.Namespace) -> tuple[list[str], list[Path], list[Path]]:
+    """The content clips to transfer and their output files, and (with --skip-existing) the outputs left
+    unwritten because only their explain record exists."""
     from elastyle.io.clip_write import check_output_format
     from elastyle.io.files import check_output_path, check_writable
 
@@ -108,9 +110,10 @@ def _outputs(args: argparse.Namespace) -> tuple[list[str], list[Path]]:
     if len(contents) == 1 and not as_folder:
         check_output_format(output)
         if args.skip_existing and not args.force and _done(args, output):
-            log.info("note: %s exists and is skipped (--skip-existing)", output)
-            return [], []
-        return contents, [check_output_path(output, force=args.force, inputs=inputs)]
+            if output.exists():
+                log.info("note: %s exists and is skipped (--skip-existing)", output)
+            return [], [], [] if output.exists() else [output]
+        return contents, [check_output_path(output, force=args.force, inputs=inputs)], []
     if not as_folder:
         raise UsageError(f"{args.output}: several content clips need an output folder: -o {args.output}/")
     if not output.is_dir() and not output.parent.is_dir():
@@ -125,11 +128,14 @@ def _outputs(args: argparse.Namespace) -> tuple[list[str], list[Path]]:
         first[target] = content
     if not output.is_dir():  # made by `run_transfer` once everything is checked: nothing exists there yet
         check_writable(output)  # its parent takes the new folder
-        return contents, targets
+        return contents, targets, []
+    unfinished: list[Path] = []
     if args.skip_existing and not args.force:
         kept = [(c, t) for c, t in zip(contents, targets) if not _done(args, t)]
-        if len(kept) < len(contents):
-            log.info("note: %d of %d outputs exist and are skipped", len(contents) - len(kept), len(contents))
+        existing_outputs = sum(t.exists() for t in targets)
+        unfinished = [t for t in targets if _done(args, t, quiet=True) and not t.exists()]
+        if existing_outputs:
+            log.info("note: %d of %d outputs exist and are skipped", existing_outputs, len(contents))
         contents, targets = [c for c, _ in kept], [t for _, t in kept]
     existing = [target for target in targets if target.is_file()]
     if existing and not args.force:  # in a batch, leaving what exists is the other way out
@@ -137,16 +143,16 @@ def _outputs(args: argparse.Namespace) -> tuple[list[str], list[Path]]:
             f"{existing[0]}: already exists (--force overwrites it; --skip-existing leaves the outputs that exist "
             "and writes the rest)"
         )
-    return contents, [check_output_path(t, force=args.force, inputs=inputs) for t in targets]
+    return contents, [check_output_path(t, force=args.force, inputs=inputs) for t in targets], unfinished
 
 
-def _done(args: argparse.Namespace, target: Path) -> bool:
+def _done(args: argparse.Namespace, target: Path, quiet: bool = False) -> bool:
     """Whether --skip-existing leaves an output: it exists, or its explain record does (where --explain asks
     for one). Where only one of the two exists (a batch stopped between them, or one deleted) the clip is
     left too, with a warning naming the missing file: writing it would replace the other without --force."""
     record = explain_path(args.explain, target) if args.explain else None
     present = [path for path in (target, record) if path is not None and path.exists()]
-    if record is not None and len(present) == 1:
+    if record is not None and len(present) == 1 and not quiet:
         missing = record if present[0] == target else target
         log.warning(
             "warning: %s exists but %s does not: that clip is skipped (--force writes both anew)",
@@ -232,7 +238,7 @@ def run_transfer(args: argparse.Namespace) -> int:
         raise UsageError(
             f"{', '.join(both)}: both kept (--keep-part) and given another clip (--style-part); give one"
         )
-    contents, targets = _outputs(args)
+    contents, targets, unfinished = _outputs(args)
     if args.scheduler and len(args.content) > 1:
         require_dask()
     elif args.scheduler:
@@ -303,6 +309,18 @@ def run_transfer(args: argparse.Namespace) -> int:
         style, model, config, second, second_weight, part_styles, args.units, read_up(), args.force,
         args.explain, _inputs(args), args.model, os.getcwd(),
     )  # fmt: skip
+    status = _run_batch(args, job, contents, targets)
+    if unfinished:  # said last, where a batch's summary would hide it
+        log.error(
+            "elastyle: error: %d output(s) not written, their explain records existing without them (%s%s): "
+            "--force writes both anew",
+            len(unfinished), unfinished[0], ", ..." if len(unfinished) > 1 else "",
+        )  # fmt: skip
+        return 1
+    return status
+
+
+def _run_batch(args: argparse.Namespace, job: Job, contents: list[str], targets: list[Path]) -> int:
     if not contents:  # every output exists and --skip-existing leaves them
         return 0
     if len(args.content) == 1:
