@@ -101,6 +101,31 @@ def test_a_dataset_clip_and_a_transfer_read_back_where_the_bvh_puts_them(
     assert pygltflib.GLTF2().load(str(out)).animations[0].channels
 
 
+def test_a_batch_writes_glb_where_asked(tmp_path: Path, dataset_clips: list[ClipRef]) -> None:
+    """-o DIR/ wrote BVH only; --output-format glb names each output .glb, as one output named so is."""
+    walk = clip_named(dataset_clips, "dataset-2_walk_normal_005").name
+    run = clip_named(dataset_clips, "dataset-2_run_normal_010").name
+    style = clip_named(dataset_clips, "dataset-2_walk_active_010").name
+
+    def cli(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run([sys.executable, "-m", "elastyle.cli", *args], capture_output=True, text=True)
+
+    batch = cli("transfer", walk, run, "--style", style, "-o", f"{tmp_path}/out/", "--output-format", "glb")
+    assert batch.returncode == 0, batch.stderr
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [
+        "dataset-2_run_normal_010.glb", "dataset-2_walk_normal_005.glb"
+    ]  # fmt: skip
+    assert cli("transfer", walk, "--style", style, "-o", str(tmp_path / "one.glb")).returncode == 0
+    one, in_batch = (
+        read_bvh(p)[0] for p in (tmp_path / "one.glb", tmp_path / "out/dataset-2_walk_normal_005.glb")
+    )
+    np.testing.assert_array_equal(one.rotations, in_batch.rotations)
+    mismatch = cli(
+        "transfer", walk, "--style", style, "-o", str(tmp_path / "x.bvh"), "--output-format", "glb"
+    )
+    assert mismatch.returncode == 2 and "name it x.glb" in mismatch.stderr
+
+
 def test_a_three_channel_clip_at_120_fps_in_its_own_unit(three_channel_bvh: Path, tmp_path: Path) -> None:
     motion, _ = read_bvh(three_channel_bvh)
     assert motion.fps == 120

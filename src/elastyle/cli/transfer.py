@@ -53,6 +53,11 @@ def add_transfer_command(commands: Any) -> None:
         required=True,
         help="output file (.bvh, or .glb: binary glTF 2.0), or DIR/ for several content clips",
     )
+    parser.add_argument(
+        "--output-format", choices=("bvh", "glb"),
+        help="with -o DIR/: the outputs' format, each named as its content clip with this extension "
+        "(default: bvh); a file's format is its name's",
+    )  # fmt: skip
     parser.add_argument("--model", help="model file (default: the shipped pretrained model)")
     add_units_flag(parser)
     add_config_flags(parser, TransferConfig)
@@ -109,6 +114,11 @@ def _outputs(args: argparse.Namespace) -> tuple[list[str], list[Path], list[Path
         raise OutputError(f"{output}: a file, not a folder; give a folder for the outputs (-o DIR/)")
     if len(contents) == 1 and not as_folder:
         check_output_format(output)
+        if args.output_format and output.suffix.lower() != f".{args.output_format}":
+            raise UsageError(
+                f"{output}: --output-format {args.output_format} names the format of outputs in a folder (-o DIR/);"
+                f" a file's is its name's: name it {output.stem}.{args.output_format}"
+            )
         if args.skip_existing and not args.force and _done(args, output):
             if output.exists():
                 log.info("note: %s exists and is skipped (--skip-existing)", output)
@@ -120,7 +130,8 @@ def _outputs(args: argparse.Namespace) -> tuple[list[str], list[Path], list[Path
         raise OutputError(
             f"{output}: several content clips need an output folder, and {output.parent} does not exist"
         )
-    targets = [output / (Path(c).stem + ".bvh") for c in contents]
+    suffix = f".{args.output_format or 'bvh'}"
+    targets = [output / (Path(c).stem + suffix) for c in contents]
     first: dict[Path, str] = {}
     for content, target in zip(contents, targets):
         if target in first:
