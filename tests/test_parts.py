@@ -440,6 +440,38 @@ def test_a_backward_walk_takes_the_style_played_backwards(model, clips: dict[str
     assert abs(steps[1] - steps[2]) < 0.5 * abs(steps[0] - steps[2])  # the style's timing, walking backwards
 
 
+def _in_place(motion: Motion) -> Motion:
+    """The clip with its pelvis's ground travel taken out, as game engines take root motion out."""
+    translations = motion.translations.copy()
+    pelvis = motion.skeleton.pelvis
+    translations[:, pelvis, [0, 2]] = translations[:1, pelvis, [0, 2]]
+    return Motion(motion.skeleton, motion.rotations, translations, motion.fps)
+
+
+@pytest.mark.parametrize("content_name", ["walk_normal_005", "run_feminine_015"])
+def test_a_clip_animated_in_place_takes_the_style_as_the_travelling_clip_does(
+    model, clips: dict[str, Motion], content_name: str
+) -> None:  # type: ignore[no-untyped-def]
+    """A walk or run animated in place (its root motion taken out) given a travelling style of its gait: its
+    legs kept their own action throughout (no window travels as it does), so it took neither the style's
+    legs nor its timing. Its travel is now read from its feet, and it transfers as the travelling clip does,
+    in place; an in-place style clip is read so too."""
+    content = clips[content_name]
+    style = clips["walk_masculine_010" if content_name.startswith("walk") else "run_elderly_025"]
+    travelling = transfer(content, style, model=model)
+    in_place = transfer(_in_place(content), style, model=model)
+    modes = [p["parts"]["legs"]["content_share"] for p in in_place.explain["styles"][0]["patches"]]
+    assert np.mean(modes) < 0.1  # the style's legs (before: the content's, 1.0 throughout)
+    frames = travelling.motion.num_frames, in_place.motion.num_frames, content.num_frames
+    assert abs(frames[1] - frames[0]) <= 0.03 * frames[0] and abs(frames[2] - frames[0]) > 0.05 * frames[0]
+    pelvis = in_place.motion.positions()[:, content.skeleton.pelvis]
+    assert np.ptp(pelvis[:, [0, 2]], axis=0).max() < 0.1 * leg_length(
+        content.skeleton, find_limbs(content.skeleton)
+    )
+    from_in_place_style = transfer(content, _in_place(style), model=model).motion.num_frames
+    assert abs(from_in_place_style - frames[0]) <= 0.03 * frames[0]
+
+
 def test_unnamed_sides_on_a_rest_pose_that_does_not_stand_take_the_first_listed_arm_for_the_left(
     model, clips: dict[str, Motion], caplog
 ) -> None:  # type: ignore[no-untyped-def]

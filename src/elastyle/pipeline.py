@@ -47,6 +47,7 @@ from elastyle.model.file import StyleModel, as_model
 from elastyle.steps.action import (
     action_channels,
     action_layout,
+    clip_in_place,
     still_frames,
     walks_backwards,
     walks_sideways,
@@ -225,6 +226,7 @@ def transfer(
     # whiten, match, place, cross-fade and colour: one track per style library on a content-time grid
     grid = content_grid(working.num_frames)  # (G,) content frames
     actions = action_channels(working, world)  # (T, A) what the body does, matched beside the latents
+    in_place = clip_in_place(working, world)  # its feet slide under a pelvis that stays: nothing to pin
     walk_said = True  # a note on the content's walk already says why its legs may keep their own action
     if not config.reverse_style and walks_backwards(actions):
         _say(notes, (
@@ -329,7 +331,15 @@ def transfer(
         motion = blend_by_strength(
             motion,
             plant_feet(
-                motion, root_share, also, floor, lowest_ground, root_applied, ceiling, needed=clean_share > 0
+                motion,
+                root_share,
+                also,
+                floor,
+                lowest_ground,
+                root_applied,
+                ceiling,
+                needed=clean_share > 0,
+                in_place=in_place,
             ),
             clean_share,
         )
@@ -381,6 +391,7 @@ def transfer(
                         ceiling,
                         1 - legs_keep,
                         clean_share > 0,
+                        in_place,
                     ),  # fmt: skip
                     clean_share,
                 )
@@ -400,6 +411,7 @@ def transfer(
                     foot_ceiling=ceiling,
                     lowering_share=1 - legs_keep,
                     needed=pin_share > 0,
+                    in_place=in_place,
                 )
                 motion = blend_by_strength(motion, pinned, pin_share)
                 lifted = (keep > 0) * clean_share[:, None]  # (N, J); the lift turns leg joints only

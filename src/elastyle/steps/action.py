@@ -6,7 +6,10 @@ sideways step for a forward one, the left hand for the right). These channels sa
 in leg lengths (per second) so any unit, skeleton size and frame rate compare alike. Axes +Y up; the
 heading frame turns with the pelvis's yaw (+Z forward).
 
-    travel (3)       pelvis velocity in the heading frame, forward and sideways (legs/s); turning (rad/s)
+    travel (3)       pelvis velocity in the heading frame, forward and sideways (legs/s); turning (rad/s).
+                     A clip animated in place (its pelvis stays while its feet step: the root motion taken
+                     out, as game engines take it) travels as its feet say: the pelvis's velocity less the
+                     lower foot's (`in_place`), so it matches a clip that walks as it does
     each hand (4)    position relative to the pelvis in the heading frame (legs), and speed (legs/s)
     each foot (1)    ankle height above its own ground level (legs): lifted, planted
     the pelvis (1)   its height less the clip's carriage (its mean over the clip's highest frames; legs): a
@@ -35,6 +38,7 @@ from elastyle.core.parts import body_parts, trunk
 from elastyle.core.rotations import lengths
 from elastyle.core.skeleton import Skeleton
 from elastyle.core.smoothing import frame_steps, smooth
+from elastyle.core.stats import median
 from elastyle.types import BoolArray, FloatArray, IntArray
 
 # sustained turning: the yaw rate low-passed with this sigma (seconds), so a step's sway does not count
@@ -129,20 +133,26 @@ def trunk_top(skeleton: Skeleton) -> int | None:
 
 def action_channels(motion: Motion, world: tuple[FloatArray, FloatArray] | None = None) -> FloatArray:
     """(T, A) action descriptors of a clip (`action_layout`; see the module's table). world: the
-    clip's world rotations and positions (`Motion.world`) of at least the pelvis, hands and ankles, when
-    already known."""
+    clip's world rotations and positions (`Motion.world`) of at least the pelvis, hands, ankles and toes,
+    when already known."""
     skeleton, limbs, top = motion.skeleton, find_limbs(motion.skeleton), trunk_top(motion.skeleton)
     leg = leg_length(skeleton, limbs)  # half the body's height without legs
     tops = [] if top is None else [top]
     world_rotations, positions = (
-        motion.world([skeleton.pelvis, *limbs.hands, *limbs.ankles, *tops]) if world is None else world
+        motion.world([skeleton.pelvis, *limbs.hands, *limbs.ankles, *limbs.toes, *tops])
+        if world is None
+        else world
     )
     pelvis = positions[:, skeleton.pelvis]  # (T, 3)
     yaw = heading_yaw(world_rotations[:, skeleton.pelvis], pelvis_forward_local(skeleton))  # (T,)
     to_heading = np.swapaxes(yaw_matrices(yaw), -1, -2)  # (T, 3, 3) world -> heading frame
     per_second = motion.fps / leg
     sigma = 0.4 * SMOOTH_S * motion.fps
-    travel = np.einsum("tij,tj->ti", to_heading, frame_steps(pelvis)) * per_second  # (T, 3) legs/s
+    steps = frame_steps(pelvis)  # (T, 3)
+    feet = positions[:, [*limbs.ankles, *limbs.toes]]  # (T, 2F, 3) the points a foot stands on
+    if len(limbs.ankles) and in_place(pelvis, feet, leg, motion.fps):
+        steps = steps - _lower_foot_steps(feet, leg, motion.fps)
+    travel = np.einsum("tij,tj->ti", to_heading, steps) * per_second  # (T, 3) legs/s
     turning = frame_steps(yaw) * motion.fps  # (T,) rad/s
     channels = [travel[:, [2, 0]], turning[:, None]]
     if len(limbs.hands):
@@ -163,6 +173,55 @@ def action_channels(motion: Motion, world: tuple[FloatArray, FloatArray] | None 
         gaze = GAZE_LEGS * head @ (facing / max(float(lengths(facing)), 1e-9))  # (T, 3) legs
         channels += [lean - carriage(lean, lean[:, 1]), gaze - carriage(gaze, lean[:, 1])]
     return smooth(np.concatenate(channels, axis=1), sigma)
+
+
+# a clip is animated in place where its feet step on (the lower one's median ground speed above this, legs/s)
+# while its pelvis moves on less than `IN_PLACE_SHARE` of that: a walk in place 0.0 against 1.2 legs/s, a walk
+# 1.3 against 0.03, a run 3.9 against 1.9 (its lower foot in flight swings), a stand 0.02 against 0.0
+IN_PLACE_FEET_LEGS_S = 0.3
+IN_PLACE_SHARE = 0.25
+
+
+LOWER_FOOT_LEGS = (
+    0.005  # a foot this much higher (leg lengths) than the lowest weighs 1/e as much in its steps
+)
+
+
+def _lower_foot_steps(points: FloatArray, leg: float, fps: float | None = None) -> FloatArray:
+    """(T, 3) ground steps per frame of the points the body stands on: each of the feet's ankles and toes
+    (T, P, 3) its own steps, weighed by how near it is to the lowest one's height (heights kept 0): the heel
+    at a heel strike, the toe as the foot rolls over it. A point's own steps, not the lowest one's place:
+    where that changes, its place jumps a stride. With `fps`, frames where even the lowest point is off the
+    ground (a run's flight) take their neighbours' steps (over about `SMOOTH_S`)."""
+    heights = points[..., 1]  # (T, P)
+    lowest = heights.min(axis=1, keepdims=True)  # (T, 1)
+    weights = np.exp(-(heights - lowest) / (LOWER_FOOT_LEGS * leg))
+    steps = np.einsum("tp,tpc->tc", weights / weights.sum(axis=1, keepdims=True), frame_steps(points))
+    steps[:, 1] = 0.0
+    if fps is not None:
+        ground = np.percentile(lowest, GROUND_PERCENTILE, method=PERCENTILE_METHOD)
+        bearing = np.exp(-(lowest - ground) / (4 * LOWER_FOOT_LEGS * leg))  # (T, 1)
+        steps = smooth(steps * bearing, SMOOTH_S * fps) / np.maximum(smooth(bearing, SMOOTH_S * fps), 1e-12)
+    return steps
+
+
+def clip_in_place(motion: Motion, world: tuple[FloatArray, FloatArray] | None = None) -> bool:
+    """Whether a clip is animated in place (`in_place`); world: `action_channels`'."""
+    limbs = find_limbs(motion.skeleton)
+    if not len(limbs.ankles):
+        return False
+    feet = [*limbs.ankles, *limbs.toes]
+    positions = (motion.world([motion.skeleton.pelvis, *feet]) if world is None else world)[1]
+    leg = leg_length(motion.skeleton, limbs)
+    return in_place(positions[:, motion.skeleton.pelvis], positions[:, feet], leg, motion.fps)
+
+
+def in_place(pelvis: FloatArray, feet: FloatArray, leg: float, fps: float) -> bool:
+    """Whether a clip is animated in place: pelvis (T, 3) and the feet's ankles and toes (T, P, 3) world
+    positions, leg its length (file units); see `IN_PLACE_FEET_LEGS_S`."""
+    stepping = median(lengths(_lower_foot_steps(feet, leg)[:, [0, 2]]), axis=0) * fps / leg  # legs/s
+    body = median(lengths(frame_steps(pelvis)[:, [0, 2]]), axis=0) * fps / leg
+    return bool(stepping > IN_PLACE_FEET_LEGS_S and body < IN_PLACE_SHARE * stepping)
 
 
 UPRIGHT_SHARE = 0.1  # a clip's carriage: its mean over its most upright tenth of frames

@@ -39,11 +39,15 @@ def plant_feet(
     foot_ceiling: FloatArray | None = None,
     lowering_share: FloatArray | None = None,
     needed: BoolArray | None = None,
+    in_place: bool = False,
 ) -> Motion:
-    """The whole clean-up (see `_plant_feet`), a toe-less foot read at its End Site (`core.foot_tips`)."""
+    """The whole clean-up (see `_plant_feet`), a toe-less foot read at its End Site (`core.foot_tips`).
+    in_place: the clip is animated in place (`steps.action.in_place`: its feet slide under a pelvis that
+    stays, as a game engine's root motion will carry it): nothing is pinned nor the root moved, the feet
+    are only kept above the ground."""
     extended = _plant_feet(
         with_foot_tips(motion), root_share, also, foot_floor, lowest_ground, root_applied, foot_ceiling,
-        lowering_share, needed,
+        lowering_share, needed, in_place,
     )  # fmt: skip
     return on_own_joints(extended, motion.skeleton)
 
@@ -58,6 +62,7 @@ def _plant_feet(
     foot_ceiling: FloatArray | None = None,
     lowering_share: FloatArray | None = None,
     needed: BoolArray | None = None,
+    in_place: bool = False,
 ) -> Motion:
     """The whole clean-up: contacts found, the root moved by `root_share` (or per frame (T,)) of the stance feet's drift
     (`steps.root_follow.adjust_root_speed`, skipped at 0), then the feet pinned (`clean_feet`). One forward kinematics pass
@@ -66,7 +71,7 @@ def _plant_feet(
     ankle (`clean_feet`): legs that step as another clip does take its contacts and its feet's clearance
     of the ground (`steps.contacts.held_footing`); lowest_ground: `clean_feet`; root_applied: (T,) how far
     each frame takes the root's move (`steps.root_follow.root_shift`), all of it when None; foot_ceiling:
-    `clean_feet`; lowering_share: (T,) `clean_feet`; needed: (T,) `_clean_feet`."""
+    `clean_feet`; lowering_share: (T,) `clean_feet`; needed: (T,) `_clean_feet`; in_place: `plant_feet`."""
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
         return _clean_feet(motion)
@@ -75,6 +80,8 @@ def _plant_feet(
     contacts = detect_contacts(motion, positions, ground)
     if also is not None:
         contacts = contacts | checked_contacts(also, motion, limbs)
+    if in_place:
+        contacts, root_share = np.zeros_like(contacts), 0.0
     if np.any(np.asarray(root_share) > 0):
         shift = root_shift(
             motion, contacts, (world_rotations, positions), root_share, applied=root_applied
