@@ -101,6 +101,10 @@ def test_a_file_is_written_with_its_line_endings_encoding_frame_time_and_offsets
     assert written.count("\r\n") == written.count("\n") and "\r\n" in written
     assert "Frame Time: 0.00833333\r\n" in written and "OFFSET 111.976680 " in written
     assert "\r" not in bvh_text(*parse_bvh(THREE_CHANNEL_BVH.encode(), "unix.bvh"))  # Unix stays Unix
+    classic = bvh_text(*parse_bvh(THREE_CHANNEL_BVH.replace("\n", "\r").encode(), "mac.bvh"))
+    assert "\n" not in classic and classic.count("\r") == THREE_CHANNEL_BVH.count(
+        "\n"
+    )  # (it came back as "\n")
     latin = parse_bvh(THREE_CHANNEL_BVH.replace("pelvis", "H\u00fcfte").encode("latin-1"), "latin.bvh")
     assert bvh_bytes(*latin).count("H\u00fcfte".encode("latin-1")) == 1  # not re-encoded as UTF-8
     assert bvh_bytes(*parse_bvh(b"\xef\xbb\xbf" + THREE_CHANNEL_BVH.encode(), "bom.bvh")).startswith(

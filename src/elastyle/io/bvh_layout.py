@@ -29,7 +29,8 @@ class BvhLayout(NamedTuple):
         solution (the middle angle within -90 to 90 degrees: the same rotation past it is written as the
         other solution).
     angles_low: where a wrapping file's angles start, -180 or 0 degrees.
-    newline: the file's line ending, "\n" or "\r\n" (Windows tools'), which a clip written in it keeps.
+    newline: the file's line ending, "\n", "\r\n" (Windows tools') or "\r" (classic Mac OS's), which a
+             clip written in it keeps.
     encoding: the file's text encoding, "utf-8", "utf-8-sig" (with a byte-order mark), "utf-16" (with its
         byte-order mark; written in the machine's byte order, little-endian on x86 and ARM) or "latin-1" (a
         file that is not UTF-8), kept likewise.

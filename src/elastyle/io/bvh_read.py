@@ -50,6 +50,13 @@ def read_bvh(path: str | os.PathLike[str]) -> tuple[Motion, BvhLayout]:
     return parse_bvh(read_input(path), str(path))
 
 
+def _newline(text: str) -> str:
+    """A file's line ending: Windows tools' "\r\n", classic Mac OS's "\r" alone, or "\n"."""
+    if "\r\n" in text:
+        return "\r\n"
+    return "\r" if "\r" in text and "\n" not in text else "\n"
+
+
 def read_input(path: str | os.PathLike[str]) -> bytes:
     """A file's bytes, once `io.files.input_problem` has found nothing against reading it (a `BvhError`
     naming the file otherwise)."""
@@ -99,7 +106,7 @@ def parse_bvh(data: bytes, name: str) -> tuple[Motion, BvhLayout]:
     wrap, low = _angle_range(channels, motion_values)
     layout = BvhLayout(
         tuple(channels), frame_time_s, first_values=_first_values(channels, motion_values),
-        angles_wrap=wrap, angles_low=low, newline="\r\n" if "\r\n" in text else "\n", encoding=encoding,
+        angles_wrap=wrap, angles_low=low, newline=_newline(text), encoding=encoding,
     )  # fmt: skip
     return motion, layout
 

@@ -44,7 +44,7 @@ def bvh_text(motion: Motion, layout: BvhLayout | None = None) -> str:
     out.write(f"MOTION\nFrames: {motion.num_frames}\nFrame Time: {_frame_time(motion.fps, layout)}\n")
     out.write(_format_rows(_channel_values(motion, layout, written)))
     text = out.getvalue()
-    return text.replace("\n", "\r\n") if layout.newline == "\r\n" else text
+    return text if layout.newline == "\n" else text.replace("\n", layout.newline)
 
 
 def _frame_time(fps: float, layout: BvhLayout) -> str:
