@@ -356,6 +356,11 @@ def test_a_skeleton_is_immutable_so_an_output_can_share_it(
     for array in (output.skeleton.offsets, output.skeleton.parents, output.skeleton.end_sites):
         with pytest.raises(ValueError, match="read-only"):
             array[...] = 0
+    import pickle
+
+    unpickled = pickle.loads(pickle.dumps(output.skeleton))  # as a batch's worker process gets it
+    assert not any(a.flags.writeable for a in (unpickled.offsets, unpickled.parents, unpickled.end_sites))
+    assert mine.renamed(name for name in own.names).skeleton.names == own.names  # any sequence of names
     offsets = np.ones((content.skeleton.num_joints, 3))
     built = elastyle.Skeleton(content.skeleton.names, content.skeleton.parents, offsets)
     offsets[0] = 5.0  # the caller's array stays the caller's

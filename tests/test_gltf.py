@@ -126,6 +126,20 @@ def test_a_batch_writes_glb_where_asked(tmp_path: Path, dataset_clips: list[Clip
     assert mismatch.returncode == 2 and "name it x.glb" in mismatch.stderr
 
 
+def test_glb_joint_names_of_spaces_or_two_lines_are_read(three_channel_bvh: Path, tmp_path: Path) -> None:
+    """A node named with spaces only, or over two lines, ended in 'internal error' (the skeleton refuses such
+    names, which no BVH file can hold): a blank name is made as a missing one is, line breaks become spaces."""
+    motion, _ = read_bvh(three_channel_bvh)
+    path = tmp_path / "clip.glb"
+    write_clip(path, motion)
+    document = pygltflib.GLTF2().load(str(path))
+    named = [node for node in document.nodes if node.name in motion.skeleton.names]
+    named[1].name, named[2].name = "   ", "Upper\nChest"
+    document.save(str(path))
+    names = read_bvh(path)[0].skeleton.names
+    assert names[1] == "joint1" and names[2] == "Upper Chest"
+
+
 def test_a_three_channel_clip_at_120_fps_in_its_own_unit(three_channel_bvh: Path, tmp_path: Path) -> None:
     motion, _ = read_bvh(three_channel_bvh)
     assert motion.fps == 120

@@ -79,7 +79,25 @@ _PUBLIC = {
 }
 
 
+# the package's own modules, reachable as attributes as they were before names were loaded when first used
+_MODULES = {
+    "cli",
+    "core",
+    "errors",
+    "eval",
+    "io",
+    "model",
+    "pipeline",
+    "steps",
+    "training",
+    "types",
+    "viewer",
+}
+
+
 def __getattr__(name: str) -> Any:
+    if name in _MODULES:
+        return importlib.import_module(f"elastyle.{name}")
     if name not in _PUBLIC:
         raise AttributeError(f"module 'elastyle' has no attribute {name!r}")
     module, attribute = _PUBLIC[name]

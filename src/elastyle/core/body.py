@@ -315,7 +315,8 @@ def _limbs_of(skeleton: Skeleton) -> Limbs:
         ]
         # the first branching below the spine with mirror-image chains, where those hold every root the names
         # found: unnamed arms, and arms whose top joint is renamed on one side (its partner then reads as a
-        # centre joint, and the arms as starting below both); a one-armed character's fingers hold no root
+        # centre joint, and the arms as starting below both); a named one-armed character's fingers hold none
+        # of its named roots, so they are not taken for arms
         for j in sorted(below_spine):
             alike = _alike_pair(skeleton, list(skeleton.children(j)))
             if alike:

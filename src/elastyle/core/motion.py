@@ -51,8 +51,7 @@ class Motion:
             raise ValueError(
                 f"translations must match rotations {self.rotations.shape}, got {self.translations.shape}"
             )
-        if isinstance(self.fps, bool) or not isinstance(self.fps, numbers.Real) or not 0 < self.fps < np.inf:
-            raise ValueError(f"fps must be a positive finite number, got {self.fps!r}")
+        _check_fps(self.fps)
 
     def __repr__(self) -> str:
         return f"Motion({self.num_frames} frames at {self.fps:g} fps, {self.skeleton!r})"
@@ -84,10 +83,11 @@ class Motion:
 
     def renamed(self, names: Sequence[str]) -> Motion:
         """The same clip with its joints named `names` (J,): one skeleton read under another's names."""
-        if isinstance(names, str) or len(names) != self.skeleton.num_joints:
-            count = "a string" if isinstance(names, str) else f"{len(names)} names"
+        given = (names,) if isinstance(names, str) else tuple(names)
+        if isinstance(names, str) or len(given) != self.skeleton.num_joints:
+            count = "a string" if isinstance(names, str) else f"{len(given)} names"
             raise ValueError(f"renamed takes one name per joint ({self.skeleton.num_joints}), got {count}")
-        return Motion(replace(self.skeleton, names=tuple(names)), self.rotations, self.translations, self.fps)
+        return Motion(replace(self.skeleton, names=given), self.rotations, self.translations, self.fps)
 
     def slice(self, start: int, stop: int) -> Motion:
         """Frames [start, stop) as a new clip."""
@@ -134,13 +134,18 @@ class Motion:
 
     def resample(self, fps: float) -> Motion:
         """The same clip at another frame rate; the duration stays (up to one frame)."""
-        if isinstance(fps, bool) or not isinstance(fps, numbers.Real) or not 0 < fps < np.inf:
-            raise ValueError(f"fps must be a positive finite number, got {fps!r}")
+        _check_fps(fps)
         if abs(fps - self.fps) < 1e-9:
             return self
         num_frames = max(1, int(round((self.num_frames - 1) * fps / self.fps)) + 1)
         frame_times = np.arange(num_frames, dtype=np.float64) * (self.fps / fps)  # (N,) source frame indices
         return self.sample(frame_times, fps)
+
+
+def _check_fps(fps: object) -> None:
+    """A `ValueError` unless `fps` is a positive finite number (not a bool, a string or an array)."""
+    if isinstance(fps, bool) or not isinstance(fps, numbers.Real) or not 0 < float(fps) < np.inf:
+        raise ValueError(f"fps must be a positive finite number, got {fps!r}")
 
 
 def check_finite_clip(motion: Motion, name: str) -> None:

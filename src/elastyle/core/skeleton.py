@@ -102,6 +102,12 @@ class Skeleton:
         for array in (self.parents, self.offsets, self.end_sites):
             array.setflags(write=False)
 
+    def __setstate__(self, state: dict[str, object]) -> None:
+        """Unpickled (a batch's worker process) read-only as built: pickling keeps no array flags."""
+        self.__dict__.update(state)
+        for array in (self.parents, self.offsets, self.end_sites):
+            array.setflags(write=False)
+
     @property
     def num_joints(self) -> int:
         return len(self.names)

@@ -176,7 +176,7 @@ def find_clips(
             found = [
                 ClipRef(str(p))
                 for p in sorted(Path(spec).rglob("*"))
-                if _is_clip_name(str(p)) and p.is_file()
+                if _is_clip_name(str(p.relative_to(spec))) and p.is_file()  # below the folder given
             ]
         elif Path(spec).exists():  # a file named with glob characters (walk[1].bvh) is that file
             found = [ClipRef(spec)]

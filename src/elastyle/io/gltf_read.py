@@ -124,7 +124,8 @@ def parse_glb(data: bytes, name: str) -> Motion:
         else:
             translations[:, joint] = values
     _under_nodes_above(document, joints[0], rotations, translations, offsets)
-    names = tuple(node.name or f"joint{j}" for j, node in enumerate(nodes))
+    # a name on one line (a BVH file holds it on one), and one for a node without any
+    names = tuple(" ".join((node.name or "").split()) or f"joint{j}" for j, node in enumerate(nodes))
     repeated = next((joint for j, joint in enumerate(names) if joint in names[:j]), None)
     if repeated is not None:
         raise BvhError(name, f"duplicate joint name {repeated!r}")

@@ -9,7 +9,7 @@ heading frame turns with the pelvis's yaw (+Z forward).
     travel (3)       pelvis velocity in the heading frame, forward and sideways (legs/s); turning (rad/s).
                      A clip animated in place (its pelvis stays while its feet step: the root motion taken
                      out, as game engines take it) travels as its feet say: the pelvis's velocity less the
-                     lower foot's (`in_place`), so it matches a clip that walks as it does
+                     lower foot's (`clip_in_place`), so it matches a clip that walks as it does
     each hand (4)    position relative to the pelvis in the heading frame (legs), and speed (legs/s)
     each foot (1)    ankle height above its own ground level (legs): lifted, planted
     the pelvis (1)   its height less the clip's carriage (its mean over the clip's highest frames; legs): a
@@ -150,7 +150,7 @@ def action_channels(motion: Motion, world: tuple[FloatArray, FloatArray] | None 
     sigma = 0.4 * SMOOTH_S * motion.fps
     steps = frame_steps(pelvis)  # (T, 3)
     feet = positions[:, [*limbs.ankles, *limbs.toes]]  # (T, 2F, 3) the points a foot stands on
-    if len(limbs.ankles) and in_place(pelvis, feet, leg, motion.fps):
+    if len(limbs.ankles) and _stays_in_place(pelvis, feet, leg, motion.fps):
         steps = steps - _lower_foot_steps(feet, leg, motion.fps)
     travel = np.einsum("tij,tj->ti", to_heading, steps) * per_second  # (T, 3) legs/s
     turning = frame_steps(yaw) * motion.fps  # (T,) rad/s
@@ -206,17 +206,17 @@ def _lower_foot_steps(points: FloatArray, leg: float, fps: float | None = None) 
 
 
 def clip_in_place(motion: Motion, world: tuple[FloatArray, FloatArray] | None = None) -> bool:
-    """Whether a clip is animated in place (`in_place`); world: `action_channels`'."""
+    """Whether a clip is animated in place (`_stays_in_place`); world: `action_channels`'."""
     limbs = find_limbs(motion.skeleton)
     if not len(limbs.ankles):
         return False
     feet = [*limbs.ankles, *limbs.toes]
     positions = (motion.world([motion.skeleton.pelvis, *feet]) if world is None else world)[1]
     leg = leg_length(motion.skeleton, limbs)
-    return in_place(positions[:, motion.skeleton.pelvis], positions[:, feet], leg, motion.fps)
+    return _stays_in_place(positions[:, motion.skeleton.pelvis], positions[:, feet], leg, motion.fps)
 
 
-def in_place(pelvis: FloatArray, feet: FloatArray, leg: float, fps: float) -> bool:
+def _stays_in_place(pelvis: FloatArray, feet: FloatArray, leg: float, fps: float) -> bool:
     """Whether a clip is animated in place: pelvis (T, 3) and the feet's ankles and toes (T, P, 3) world
     positions, leg its length (file units); see `IN_PLACE_FEET_LEGS_S`."""
     stepping = median(lengths(_lower_foot_steps(feet, leg)[:, [0, 2]]), axis=0) * fps / leg  # legs/s

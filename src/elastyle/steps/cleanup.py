@@ -42,7 +42,7 @@ def plant_feet(
     in_place: bool = False,
 ) -> Motion:
     """The whole clean-up (see `_plant_feet`), a toe-less foot read at its End Site (`core.foot_tips`).
-    in_place: the clip is animated in place (`steps.action.in_place`: its feet slide under a pelvis that
+    in_place: the clip is animated in place (`steps.action.clip_in_place`: its feet slide under a pelvis that
     stays, as a game engine's root motion will carry it): nothing is pinned nor the root moved, the feet
     are only kept above the ground."""
     extended = _plant_feet(

@@ -25,7 +25,7 @@ def _angle(u: FloatArray, v: FloatArray) -> FloatArray:
 SOFT_FROM = 0.95  # a hip-ankle distance past this share of the straight leg's length is reached softly
 # a knee bent less than this (radians, 180 degrees less its angle) bends, where the IK bends it, in the clip's
 # knee plane rather than its own (eased in from straight): the plane of a near-straight leg is noise
-OWN_PLANE_FROM = np.radians(6.0)
+CLIP_PLANE_BELOW = np.radians(6.0)
 
 
 def _soft_reach(wanted: FloatArray, own: FloatArray, thigh: FloatArray, shin: FloatArray) -> FloatArray:
@@ -59,14 +59,15 @@ def leg_ik(
 
     world_rotations: (T, J, 3, 3); positions: (T, J, 3); parents: (F,) each upper leg's parent (-1: none);
     chains: (F, 3) upper leg, knee, ankle; targets: (T, F, 3).
-    The knee bends in its own plane (normal (ankle - hip) x (knee - hip)), a near-straight one in the clip's
-    (its frames' normals in the upper leg's frame summed, each as long as its knee is bent, so the bent
-    frames decide), eased between the two up to a bend of `OWN_PLANE_FROM`: a straight leg's own plane is
-    whichever way the knee strays by a hair, and a knee bent in it could bend backwards for a few frames. The
-    IK gets the hip-target distance by the law of cosines, the leg
-    turns back in that plane onto its old hip-ankle line, then swings that line onto the target (minimal
-    arc). The ankle keeps its world rotation, so the foot keeps its orientation. Targets near the straight
-    leg's reach are reached softly (`_soft_reach`), under 2 % of the leg short.
+    The leg is straightened in its own plane (normal (ankle - hip) x (knee - hip)) onto its hip-ankle line,
+    bent by the law of cosines to the hip-target distance, and that line swung onto the target (minimal
+    arc); the ankle keeps its world rotation, so the foot keeps its orientation. It bends in its own plane,
+    a near-straight knee in the clip's knee plane (its frames' normals in the upper leg's frame summed, each
+    as long as its knee is bent, so the bent frames decide), eased between the two up to a bend of
+    `CLIP_PLANE_BELOW`, and a knee bent against the clip's plane (backwards) in the clip's: a near-straight
+    leg's own plane is whichever way the knee strays by a hair. A straightened leg bends exactly in any
+    plane through its line. Targets near the straight leg's reach are reached softly (`_soft_reach`), under
+    2 % of the leg short.
     """
     upper_world, knee_world, ankle_world = (
         world_rotations[:, chains[:, i]] for i in range(3)
@@ -75,25 +76,29 @@ def leg_ik(
     normal = np.cross(ankle - hip, knee - hip)  # (T, F, 3), |hip-ankle| |hip-knee| sin(the hip's angle) long
     size = lengths(normal)
     local_normal = np.einsum("tfji,tfj->tfi", upper_world, normal)  # (T, F, 3) in the upper leg's frame
-    mean_normal = np.sum(local_normal, axis=0)  # (F, 3)
+    clip_normal = np.sum(local_normal, axis=0)  # (F, 3)
     across = np.cross(np.einsum("fj,fji->fi", (knee - hip)[0], upper_world[0]), [1e-3, 1e-2, 1.0])  # (F, 3)
-    straight = lengths(mean_normal) <= 1e-6 * np.sum(lengths(ankle - hip) * lengths(knee - hip), axis=0)
-    mean_normal = np.where(straight[:, None], across, mean_normal)  # a leg straight throughout: any plane
-    mean_normal = mean_normal / np.maximum(lengths(mean_normal, keepdims=True), 1e-300)  # (F, 3)
+    straight = lengths(clip_normal) <= 1e-6 * np.sum(lengths(ankle - hip) * lengths(knee - hip), axis=0)
+    clip_normal = np.where(straight[:, None], across, clip_normal)  # a leg straight throughout: any plane
     if frames is not None:  # the clip's knee plane read, the rest at these frames only
         upper_world, knee_world, ankle_world, hip, knee, ankle, normal, size, targets = (
             values[frames]
             for values in (upper_world, knee_world, ankle_world, hip, knee, ankle, normal, size, targets)
         )
         world_rotations = world_rotations[frames]
-    own = np.clip((np.pi - _angle(hip - knee, ankle - knee)) / OWN_PLANE_FROM, 0.0, 1.0)[
-        ..., None
-    ]  # (T, F, 1)
-    own = own * own * (3 - 2 * own)
-    axes = own * normal / np.maximum(size, 1e-300)[..., None] + (1 - own) * np.einsum(
-        "tfij,fj->tfi", upper_world, mean_normal
-    )
-    axes = axes / np.maximum(lengths(axes, keepdims=True), 1e-300)  # (T, F, 3)
+    line = (ankle - hip) / np.maximum(lengths(ankle - hip, keepdims=True), 1e-300)  # (T, F, 3)
+    hinge = np.einsum("tfij,fj->tfi", upper_world, clip_normal)  # (T, F, 3) the clip's plane, in the world
+    hinge -= np.sum(hinge * line, axis=-1, keepdims=True) * line
+    hinge /= np.maximum(lengths(hinge, keepdims=True), 1e-300)
+    own_normal = np.where((size > 0)[..., None], normal / np.maximum(size, 1e-300)[..., None], hinge)
+    # the own plane's share: from the clip's at a straight knee to its own at `CLIP_PLANE_BELOW`, none where the
+    # knee bends against the clip's plane (eased off from 60 degrees off it, so no share jumps)
+    knee_angle_now = _angle(hip - knee, ankle - knee)  # (T, F) radians, pi straight
+    own = np.clip((np.pi - knee_angle_now) / CLIP_PLANE_BELOW, 0.0, 1.0)
+    along = np.clip(2 * np.sum(own_normal * hinge, axis=-1), 0.0, 1.0)
+    own = (own * own * (3 - 2 * own)) * (along * along * (3 - 2 * along))
+    axes = own[..., None] * own_normal + (1 - own[..., None]) * hinge  # within 90 degrees where both count
+    axes /= np.maximum(lengths(axes, keepdims=True), 1e-300)  # (T, F, 3), across the hip-ankle line
 
     thigh, shin = lengths(knee - hip), lengths(ankle - knee)  # (T, F)
     distance = _soft_reach(lengths(targets - hip), lengths(ankle - hip), thigh, shin)
@@ -101,18 +106,22 @@ def leg_ik(
     knee_angle = np.arccos(np.clip((thigh**2 + shin**2 - distance**2) / (2 * thigh * shin), -1, 1))
     cross = np.cross(ankle - hip, targets - hip)
     swing_axis = cross / np.maximum(lengths(cross), 1e-300)[..., None]
-    # the knee's bend, the hip's turn back onto the hip-ankle line, and the swing onto the target
-    bend, turn, swing = to_matrix(
+    # straightened in its own plane onto its hip-ankle line, bent about `axes`, and that line swung onto the target
+    unbend, unturn, bend, turn, swing = to_matrix(
         np.stack(
             [
-                axes * (knee_angle - _angle(hip - knee, ankle - knee))[..., None],
-                axes * (hip_angle - _angle(ankle - hip, knee - hip))[..., None],
+                own_normal * (np.pi - knee_angle_now)[..., None],
+                own_normal * -_angle(ankle - hip, knee - hip)[..., None],
+                axes * (knee_angle - np.pi)[..., None],
+                axes * hip_angle[..., None],
                 swing_axis * _angle(ankle - hip, targets - hip)[..., None],
             ]
         )
     )  # (T, F, 3, 3) each
-    new_upper = swing @ turn @ upper_world
-    new_knee = new_upper @ np.swapaxes(upper_world, -1, -2) @ bend @ knee_world
+    # in the world, in order: the knee unbent, the thigh turned onto the line (carrying the shin), the knee bent,
+    # the thigh turned off it, the line swung
+    new_upper = swing @ turn @ unturn @ upper_world
+    new_knee = swing @ turn @ bend @ unturn @ unbend @ knee_world
     parent_world = np.where(
         (parents >= 0)[:, None, None], world_rotations[:, np.maximum(parents, 0)], np.eye(3)
     )  # (T, F, 3, 3)
