@@ -72,6 +72,7 @@ from elastyle.steps.keep import (
     statistics_weights,
 )
 from elastyle.steps.library import StyleLibrary, as_library
+from elastyle.steps.loop import middle_cycle, tiled
 from elastyle.steps.schedule import Schedule
 from elastyle.steps.timeline import content_grid, mix_tracks, on_output_frames, output_content_times
 from elastyle.steps.track import MIN_PATCH_FRAMES, requested_patch_frames, style_track
@@ -124,9 +125,76 @@ def transfer(
     follows the style's timing unless `timing="content"`), and the explain record (a dict: the matched
     patches, notes, the output's frame count). Raises `ElastyleError` subclasses for unusable input
     (`SkeletonMismatchError`, `ClipTooShortError`, `ConfigError`, `BvhError` for NaN values), `TypeError`
-    where something else than a clip is given.
+    where something else than a clip is given. With `loop`, the content is a cycle and so is the output
+    (`steps.loop`).
     """
     config = TransferConfig.of(config, **options)
+    arguments: dict[str, Any] = dict(
+        model=model, second_style=second_style, second_weight=second_weight, style_names=style_names,
+        second_style_names=second_style_names, part_styles=part_styles, content_name=content_name,
+    )  # fmt: skip
+    if config.loop:
+        return _looped(content, style, config, **arguments)
+    return _transfer(content, style, config, **arguments)[0]
+
+
+def _looped(content: Motion, style: StyleInput, config: TransferConfig, **arguments: Any) -> TransferResult:
+    """`transfer` of a cycle: three cycles end to end transferred, the output the middle one's (`steps.loop`)."""
+    check_clip_type(content, "content")
+    name = arguments["content_name"]
+    if content.num_frames < 2:
+        raise ClipTooShortError(f"{name}: {content.num_frames} frame(s); a cycle needs at least 2")
+    keyed = [
+        option
+        for option, schedule in (
+            ("strength", config.strength_schedule),
+            ("second_weight", second_schedule(arguments["second_style"], arguments["second_weight"])),
+        )
+        if len(schedule.values) > 1
+    ]
+    if keyed:
+        raise ConfigError(
+            f"{name}: loop takes a constant {keyed[0]} (keyframes are times in one reading of the clip)"
+        )
+    result, content_frames = _transfer(
+        tiled(content), style, TransferConfig.of(config, loop=False), **arguments
+    )
+    loop, start, end, seam = middle_cycle(result.motion, content_frames, content)
+    record = dict(result.explain, loop=True, output_frames=loop.num_frames)
+    cycle_s, start_s = content.duration_s, start / loop.fps
+    for entry in [
+        *record["styles"],
+        *record.get("part_styles", []),
+    ]:  # the middle cycle's patches, on its clocks
+        entry["patches"] = [
+            dict(patch, content_start_s=round(patch["content_start_s"] - cycle_s, 4),
+                 output_start_s=round(patch["output_start_s"] - start_s, 4))
+            for patch in entry["patches"]
+            if start_s - entry["patch_s_used"] < patch["output_start_s"] < end / loop.fps
+        ]  # fmt: skip
+    note = (
+        f"note: {name}: read as a cycle (its last frame runs into its first): transferred three times end to "
+        f"end, the output is the middle one's {loop.num_frames} frames, their seam cross-faded over {seam}"
+    )
+    log.info("%s", note)
+    record["notes"] = [*record["notes"], note]
+    return TransferResult(loop, record)
+
+
+def _transfer(
+    content: Motion,
+    style: StyleInput,
+    config: TransferConfig,
+    *,
+    model: StyleModel | str | os.PathLike[str] | None,
+    second_style: StyleInput | None,
+    second_weight: float | str | Schedule | None,
+    style_names: Sequence[str] | None,
+    second_style_names: Sequence[str] | None,
+    part_styles: Mapping[str, StyleInput] | None,
+    content_name: str,
+) -> tuple[TransferResult, FloatArray]:
+    """`transfer`, and the content frame (T_out,) each output frame shows."""
     check_clip_type(content, "content")
     check_part_styles(part_styles, config.kept_parts)
     change = second_schedule(second_style, second_weight)  # the second style's share over content time
@@ -449,7 +517,7 @@ def transfer(
     record["output_frames"] = motion.num_frames  # as written, at the content's frame rate
     record["output_fps"] = motion.fps
     record["content_reconstruction_cm"] = round(error_cm, 3)
-    return TransferResult(motion, record)
+    return TransferResult(motion, record), content_frames
 
 
 SINK_CM = 1.0  # the clean-up lets toes stand at most this far below the content's ground

@@ -83,6 +83,12 @@ class TransferConfig:
         "add each style clip played backwards to its library, so a content that walks backwards finds the "
         "style's steps (off by default: forward contents then sometimes take reversed windows)",
     )
+    loop: bool = option(
+        False,
+        "the content is a cycle (its last frame runs into its first, as a game's walk or run cycle loops): "
+        "transferred as three cycles end to end, the output is the middle one's, its seam cross-faded, so it "
+        "loops too (a constant strength)",
+    )
     whiten_floor: float = option(
         0.1,
         "whitening: each latent direction's variance is floored at this fraction of the mean variance, so "
