@@ -380,7 +380,7 @@ def _transfer(
     if kept_share >= LEGS_KEPT_NOTE and not walk_said:
         _say(notes, (
             f"note: {content_name}: its legs keep their own action over {100 * kept_share:.0f} % of the clip (they "
-            "act otherwise than in the style's windows: another pace or gait, or no steps), so the style shows "
+            "act otherwise than in the style's windows: another pace, gait or turn, or no steps), so the style shows "
             "above them there"
         ))  # fmt: skip
     root_share = config.root_follows_legs * (1 - legs_keep)  # (N,)
@@ -564,7 +564,7 @@ def short_content_note(content_name: str, duration_s: float, patch_s: float) -> 
     return (
         f"note: {content_name}: {duration_s:.2f} s, shorter than one patch ({patch_s:.2f} s): the whole "
         "clip is matched as one stretched window, so it takes the style's manner only roughly and its length "
-        "follows that window's stretch"
+        "follows that window's stretch (a cycle that loops: --loop reads it as one, three times over)"
     )
 
 
