@@ -525,3 +525,9 @@ def test_a_cycle_transferred_as_one_loops(model, dataset_clips: list[ClipRef]) -
     )
     with pytest.raises(ConfigError, match="loop takes a constant strength"):
         transfer(cycle, style, model=model, loop=True, strength="0:0,1:1")
+    assert not any("heading turns" in note for note in looped.explain["notes"])
+    turning = _one_cycle(
+        clip_named(dataset_clips, "dataset-2_walk-turn-left_normal_010").read()[0]
+    )  # 14 degrees
+    said = transfer(turning, style, model=model, loop=True).explain["notes"]
+    assert any("its heading turns 14 degrees over the cycle" in note for note in said)

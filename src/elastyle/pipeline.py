@@ -72,7 +72,7 @@ from elastyle.steps.keep import (
     statistics_weights,
 )
 from elastyle.steps.library import StyleLibrary, as_library
-from elastyle.steps.loop import middle_cycle, tiled
+from elastyle.steps.loop import TURNING_CYCLE_DEGREES, cycle_turn_degrees, middle_cycle, tiled
 from elastyle.steps.schedule import Schedule
 from elastyle.steps.timeline import content_grid, mix_tracks, on_output_frames, output_content_times
 from elastyle.steps.track import MIN_PATCH_FRAMES, requested_patch_frames, style_track
@@ -161,6 +161,9 @@ def _looped(content: Motion, style: StyleInput, config: TransferConfig, **argume
     )
     loop, start, end, seam = middle_cycle(result.motion, content_frames, content)
     record = dict(result.explain, loop=True, output_frames=loop.num_frames)
+    record["model_rate_frames"] = round(
+        record["model_rate_frames"] * loop.num_frames / result.motion.num_frames
+    )
     cycle_s, start_s = content.duration_s, start / loop.fps
     for entry in [
         *record["styles"],
@@ -170,14 +173,21 @@ def _looped(content: Motion, style: StyleInput, config: TransferConfig, **argume
             dict(patch, content_start_s=round(patch["content_start_s"] - cycle_s, 4),
                  output_start_s=round(patch["output_start_s"] - start_s, 4))
             for patch in entry["patches"]
-            if start_s - entry["patch_s_used"] < patch["output_start_s"] < end / loop.fps
+            # a patch lasts its window's length times its stretch on the output's clock
+            if start_s - entry["patch_s_used"] * patch.get("stretch", 1.0) < patch["output_start_s"] < end / loop.fps
         ]  # fmt: skip
     note = (
         f"note: {name}: read as a cycle (its last frame runs into its first): transferred three times end to "
-        f"end, the output is the middle one's {loop.num_frames} frames, their seam cross-faded over {seam}"
+        f"end, the output is the middle one's {loop.num_frames} frames, their seam cross-faded over {seam} frames"
     )
     log.info("%s", note)
     record["notes"] = [*record["notes"], note]
+    turn = cycle_turn_degrees(content)
+    if abs(turn) > TURNING_CYCLE_DEGREES:
+        _say(record["notes"], (
+            f"note: {name}: its heading turns {turn:.0f} degrees over the cycle; the copies are tiled without "
+            "that turn, so the loop's first and last frames may turn sharply (--timing content keeps them smooth)"
+        ))  # fmt: skip
     return TransferResult(loop, record)
 
 

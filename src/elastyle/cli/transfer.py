@@ -240,6 +240,10 @@ def run_transfer(args: argparse.Namespace) -> int:
     written = [args.output] if args.output and names_folder(args.output) else []  # the outputs' folder
     args.content = _content_clips(args.content, written)
     _check_style_options(args)
+    if config.loop and (len(config.strength_schedule.values) > 1 or args.then_style):
+        raise UsageError(
+            "--loop takes a constant --strength and no --then-style: keyframes are times in one reading of the clip"
+        )
     from elastyle.core.parts import parse_parts
 
     # --style-part checked before any work, and no part both kept and styled by another clip

@@ -12,12 +12,25 @@ from __future__ import annotations
 
 import numpy as np
 
+from elastyle.core.body import heading_yaw, pelvis_forward_local
 from elastyle.core.motion import Motion
 from elastyle.steps.decode import blend_by_strength
 from elastyle.types import FloatArray
 
 COPIES = 3  # cycles transferred end to end; the output is the middle one's
 SEAM_S = 0.2  # the seam is cross-faded over this long (seconds), at most a third of the cycle
+# a cycle whose heading turns more than this over it is said to loop with its ends turning sharply: its copies
+# are tiled without the turn, so the heading snaps back between them
+TURNING_CYCLE_DEGREES = 10.0
+
+
+def cycle_turn_degrees(motion: Motion) -> float:
+    """How far (degrees) the pelvis's heading turns over one cycle, carried on by one more frame's share."""
+    skeleton = motion.skeleton
+    world_rotations, _ = motion.world([skeleton.pelvis])
+    yaw = np.unwrap(heading_yaw(world_rotations[:, skeleton.pelvis], pelvis_forward_local(skeleton)))
+    frames = motion.num_frames
+    return float(np.degrees(yaw[-1] - yaw[0]) * frames / max(frames - 1, 1))
 
 
 def cycle_travel(motion: Motion) -> FloatArray:
