@@ -409,18 +409,11 @@ def _transfer(
         motion = blend_by_strength(
             motion,
             plant_feet(
-                motion,
-                root_share,
-                also,
-                floor,
-                lowest_ground,
-                root_applied,
-                ceiling,
-                needed=clean_share > 0,
+                motion, root_share, also, floor, lowest_ground, root_applied, ceiling, needed=clean_share > 0,
                 in_place=in_place,
             ),
             clean_share,
-        )
+        )  # fmt: skip
     if np.any(keep > 0):
         reference = content_at if base_at is None else base_at
         unstyled = joint_set([*kept, *styled_joints])  # kept, or styled by another library
