@@ -72,7 +72,7 @@ from elastyle.steps.keep import (
     statistics_weights,
 )
 from elastyle.steps.library import StyleLibrary, as_library
-from elastyle.steps.loop import TURNING_CYCLE_DEGREES, cycle_turn_degrees, middle_cycle, tiled
+from elastyle.steps.loop import middle_cycle, tiled
 from elastyle.steps.schedule import Schedule
 from elastyle.steps.timeline import content_grid, mix_tracks, on_output_frames, output_content_times
 from elastyle.steps.track import MIN_PATCH_FRAMES, requested_patch_frames, style_track
@@ -182,12 +182,6 @@ def _looped(content: Motion, style: StyleInput, config: TransferConfig, **argume
     )
     log.info("%s", note)
     record["notes"] = [*record["notes"], note]
-    turn = cycle_turn_degrees(content)
-    if abs(turn) > TURNING_CYCLE_DEGREES:
-        _say(record["notes"], (
-            f"note: {name}: its heading turns {turn:.0f} degrees over the cycle; the copies are tiled without "
-            "that turn, so the loop's first and last frames may turn sharply (--timing content keeps them smooth)"
-        ))  # fmt: skip
     return TransferResult(loop, record)
 
 
