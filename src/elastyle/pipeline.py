@@ -73,6 +73,7 @@ from elastyle.steps.keep import (
 )
 from elastyle.steps.library import StyleLibrary, as_library
 from elastyle.steps.loop import middle_cycle, tiled
+from elastyle.steps.root_follow import ground_shift, shifted_pelvis
 from elastyle.steps.schedule import Schedule
 from elastyle.steps.timeline import content_grid, mix_tracks, on_output_frames, output_content_times
 from elastyle.steps.track import MIN_PATCH_FRAMES, requested_patch_frames, style_track
@@ -393,6 +394,9 @@ def _transfer(
     root_applied = np.clip(strength_out, 0.0, 1.0)  # (N,)
     _by_strength(keep, automatic, strength_out, config.decode)
     lowest_ground = _lowest_ground(working, world[1])  # none without feet
+    root_moved = np.zeros(
+        (len(strength_out), 3)
+    )  # (N, 3) world: the clean-up's move of the pelvis on the ground
     if config.cleanup:
         # on the content's floor (toes the style's statistics swing through it are lifted); where the style's
         # statistics alone colour the content (the fallback, the statistics methods) its legs step as the
@@ -400,7 +404,7 @@ def _transfer(
         on_statistics = fallback_weights(tracks, shares, grid, content_time, positions) > 0.5  # (N,)
         held = held_footing(content_at, on_statistics) if np.any(on_statistics) else None
         also, floor, ceiling = held if held is not None else (None, None, None)
-        motion = blend_by_strength(
+        cleaned = blend_by_strength(
             motion,
             plant_feet(
                 motion, root_share, also, floor, lowest_ground, root_applied, ceiling, needed=clean_share > 0,
@@ -408,6 +412,8 @@ def _transfer(
             ),
             clean_share,
         )  # fmt: skip
+        root_moved = ground_shift(motion, cleaned)
+        motion = cleaned
     if np.any(keep > 0):
         reference = content_at if base_at is None else base_at
         unstyled = joint_set([*kept, *styled_joints])  # kept, or styled by another library
@@ -434,6 +440,10 @@ def _transfer(
         )  # (N, J), read as the keep is
         _by_strength(posture, automatic, strength_out, config.decode)
         target = keep_target(content_at, styled_at, reference, posture, strength_out, coloured_at, colour)
+        if np.any(root_moved) and content.skeleton.pelvis not in kept:
+            # on the path the clean-up gave the root: the content's own place, which the path following the
+            # stride has left behind, let a long take's stand slide 80 cm as its legs came to keep its action
+            target = shifted_pelvis(target, root_moved)
         target = arms_hanging(target, motion, content_at, keep, kept)
         motion = blend_by_strength(motion, target, keep)
         if config.cleanup and (coloured_at is not None or np.any(keep[:, automatic_legs] > 0)):
@@ -457,6 +467,7 @@ def _transfer(
                         1 - legs_keep,
                         clean_share > 0,
                         in_place,
+                        root_moved,  # the two clean-ups' moves of the root together within its bound
                     ),  # fmt: skip
                     clean_share,
                 )

@@ -40,6 +40,7 @@ def plant_feet(
     lowering_share: FloatArray | None = None,
     needed: BoolArray | None = None,
     in_place: bool = False,
+    root_moved: FloatArray | None = None,
 ) -> Motion:
     """The whole clean-up (see `_plant_feet`), a toe-less foot read at its End Site (`core.foot_tips`).
     in_place: the clip is animated in place (`steps.action.clip_in_place`: its feet slide under a pelvis that
@@ -47,7 +48,7 @@ def plant_feet(
     are only kept above the ground."""
     extended = _plant_feet(
         with_foot_tips(motion), root_share, also, foot_floor, lowest_ground, root_applied, foot_ceiling,
-        lowering_share, needed, in_place,
+        lowering_share, needed, in_place, root_moved,
     )  # fmt: skip
     return on_own_joints(extended, motion.skeleton)
 
@@ -63,6 +64,7 @@ def _plant_feet(
     lowering_share: FloatArray | None = None,
     needed: BoolArray | None = None,
     in_place: bool = False,
+    root_moved: FloatArray | None = None,
 ) -> Motion:
     """The whole clean-up: contacts found, the root moved by `root_share` (or per frame (T,)) of the stance feet's drift
     (`steps.root_follow.adjust_root_speed`, skipped at 0), then the feet pinned (`clean_feet`). One forward kinematics pass
@@ -71,7 +73,9 @@ def _plant_feet(
     ankle (`clean_feet`): legs that step as another clip does take its contacts and its feet's clearance
     of the ground (`steps.contacts.held_footing`); lowest_ground: `clean_feet`; root_applied: (T,) how far
     each frame takes the root's move (`steps.root_follow.root_shift`), all of it when None; foot_ceiling:
-    `clean_feet`; lowering_share: (T,) `clean_feet`; needed: (T,) `_clean_feet`; in_place: `plant_feet`."""
+    `clean_feet`; lowering_share: (T,) `clean_feet`; needed: (T,) `_clean_feet`; in_place: `plant_feet`;
+    root_moved: (T, 3) world, how far an earlier clean-up moved the pelvis off its path (`root_shift`'s
+    `moved`)."""
     skeleton, limbs = motion.skeleton, find_limbs(motion.skeleton)
     if len(limbs.toes) == 0:
         return _clean_feet(motion)
@@ -84,7 +88,7 @@ def _plant_feet(
         contacts, root_share = np.zeros_like(contacts), 0.0
     if np.any(np.asarray(root_share) > 0):
         shift = root_shift(
-            motion, contacts, (world_rotations, positions), root_share, applied=root_applied
+            motion, contacts, (world_rotations, positions), root_share, applied=root_applied, moved=root_moved
         )  # (T, 3) world
         motion = Motion(
             skeleton, motion.rotations.copy(), shift_pelvis(motion, world_rotations, shift), motion.fps

@@ -65,6 +65,7 @@ def root_shift(
     tolerance: float = ROOT_STRAY_OF_PATH,
     stray_legs: float = ROOT_STRAY_LEGS,
     applied: FloatArray | None = None,
+    moved: FloatArray | None = None,
 ) -> FloatArray:
     """(T, 3) world: how `adjust_root_speed` moves the pelvis, from the clip's world rotations and
     positions of the feet and their ancestors (`Motion.world`). share: a number or (T,) per frame.
@@ -72,7 +73,9 @@ def root_shift(
     The running sum of the planted feet's drift times `share` where the pelvis travels (`TRAVEL_LEGS_S`),
     bounded to `tolerance` of the path's length and `stray_legs` leg lengths, then times
     `applied` (T,) per frame where given: how far the clip takes it (a transfer's strength: fading out, the
-    pelvis comes back to its path step by step over planted feet instead of sliding them back at the end)."""
+    pelvis comes back to its path step by step over planted feet instead of sliding them back at the end).
+    moved: (T, 3) world, where given, how far the pelvis has already been moved off its path (an earlier
+    clean-up's move): the two together keep within the bound, the new move scaled as a whole."""
     limbs = find_limbs(motion.skeleton)
     leg = leg_length(motion.skeleton, limbs)
     positions = world[1]
@@ -90,7 +93,22 @@ def root_shift(
     furthest, bound = np.max(lengths(shift), initial=0.0), min(stray_legs * leg, tolerance * path)
     if furthest > bound:  # scaled as a whole: the root follows a smaller share of the drift throughout
         shift *= bound / furthest
-    return shift if applied is None else shift * np.asarray(applied, dtype=np.float64)[:, None]
+    if applied is not None:
+        shift = shift * np.asarray(applied, dtype=np.float64)[:, None]
+    return shift if moved is None else shift * _within(moved, shift, bound)
+
+
+def _within(moved: FloatArray, shift: FloatArray, bound: float) -> float:
+    """The largest share k in [0, 1] of `shift` (T, 3) that keeps `moved` + k `shift` within `bound` of the path
+    at every frame (0 where `moved` alone is beyond it)."""
+    squared = np.sum(shift**2, axis=-1)  # (T,) |s|^2
+    along = np.sum(moved * shift, axis=-1)  # (T,) m . s
+    room = bound**2 - np.sum(moved**2, axis=-1)  # (T,) B^2 - |m|^2
+    if np.any(room < 0):
+        return 0.0
+    moving = squared > 0  # |m + k s| <= B up to the larger root of |s|^2 k^2 + 2 (m . s) k - room
+    roots = (-along[moving] + np.sqrt(along[moving] ** 2 + squared[moving] * room[moving])) / squared[moving]
+    return float(np.clip(np.min(roots, initial=1.0), 0.0, 1.0))
 
 
 def _travelling(pelvis: FloatArray, leg: float, fps: float) -> FloatArray:
@@ -104,6 +122,24 @@ def _travelling(pelvis: FloatArray, leg: float, fps: float) -> FloatArray:
 def carried_by_pelvis(skeleton: Skeleton, limbs: Limbs) -> list[int]:
     """The feet and their ancestors that move with the pelvis (the pelvis and the joints below it)."""
     return [j for j in skeleton.with_ancestors(limbs.feet).tolist() if is_below(skeleton, j, skeleton.pelvis)]
+
+
+def ground_shift(before: Motion, after: Motion) -> FloatArray:
+    """(T, 3) world, file units: how far `after` moves the pelvis of `before` (the same T frames, the joints
+    above the pelvis alike) on the ground, heights 0."""
+    pelvis, parent = before.skeleton.pelvis, before.skeleton.parents[before.skeleton.pelvis]
+    shift = after.translations[:, pelvis] - before.translations[:, pelvis]
+    if parent >= 0:  # the pelvis translation is in its parent's frame
+        shift = np.einsum("tij,tj->ti", before.world([parent])[0][:, parent], shift)
+    shift[:, 1] = 0.0
+    return shift
+
+
+def shifted_pelvis(motion: Motion, shift: FloatArray) -> Motion:
+    """The clip with its pelvis moved by `shift` (T, 3), world frame, file units."""
+    parent = motion.skeleton.parents[motion.skeleton.pelvis]
+    world_rotations = motion.world([parent])[0] if parent >= 0 else np.zeros((0, 0, 3, 3))
+    return Motion(motion.skeleton, motion.rotations, shift_pelvis(motion, world_rotations, shift), motion.fps)
 
 
 def shift_pelvis(motion: Motion, world_rotations: FloatArray, shift: FloatArray) -> FloatArray:
