@@ -712,19 +712,29 @@ def test_train_gives_one_line_for_short_clips_and_foreign_checkpoints(tmp_path: 
     assert result.stderr.count("elastyle: error:") == 1 and "Traceback" not in result.stderr
 
 
-def test_train_names_a_broken_clip_among_many(tmp_path: Path) -> None:
-    """More than 8 clips are read in parallel: a broken one is still named in one line."""
+def test_train_names_every_broken_clip_among_many_and_excludes_them_as_named(tmp_path: Path) -> None:
+    """Two broken clips among many: both are named in one line (not one per run), and `--exclude` leaves them
+    out under the name the error shows (with its extension or its folder: it had matched the bare name only)."""
     pytest.importorskip("torch", reason='training is an extra: pip install "elastyle[train]"')
     for take in range(1, 10):
         (tmp_path / f"clip_{take:03d}.bvh").write_text(GOOD)
     broken = tmp_path / "clip_011.bvh"  # a training take (numbers % 5 == 0 are held out)
     broken.write_text(GOOD.rstrip("\n").rsplit(" ", 3)[0] + "\n")  # its last row cut short
-    result = _cli("train", str(tmp_path), "-o", str(tmp_path / "m.npz"), "--steps", "1", "--kernel", "1")
-    assert result.returncode == 1 and f"{broken}:" in result.stderr and "values" in result.stderr, (
-        result.stderr
-    )
+    wrong = tmp_path / "clip_012.bvh"
+    wrong.write_text(GOOD.replace("0.0", "zero", 1))
+    model = str(tmp_path / "m.npz")
+    result = _cli("train", str(tmp_path), "-o", model, "--steps", "1", "--kernel", "1")
+    assert result.returncode == 1 and "2 of 11 clip(s) could not be read" in result.stderr, result.stderr
+    assert f"{broken}:" in result.stderr and f"{wrong}:" in result.stderr and "--exclude" in result.stderr
     assert result.stderr.count("elastyle: error:") == 1 and "internal error" not in result.stderr
-    assert not (tmp_path / "m.npz").exists()
+    assert not Path(model).exists()
+    result = _cli("train", str(tmp_path), "-o", model, "--steps", "1", "--kernel", "1", "--threads", "1",
+                  "--exclude", "clip_011.bvh", "--exclude", f"{tmp_path.name}/clip_012.bvh")  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert "clips: 2 of 11 left out by --exclude" in result.stderr
+    result = _cli("train", str(tmp_path), "-o", model, "--steps", "1", "--kernel", "1", "--threads", "1",
+                  "--exclude", "clip_01[12]", "--exclude", "nothing_*", "--force")  # fmt: skip
+    assert result.returncode == 0 and "--exclude nothing_* matches no clip" in result.stderr, result.stderr
 
 
 def test_train_refuses_clips_of_one_skeleton_in_two_rest_poses(tmp_path: Path) -> None:

@@ -10,10 +10,12 @@ from collections.abc import Sequence
 from elastyle.core.body import at_size_of, same_rest_pose, same_structure
 from elastyle.core.motion import Motion
 from elastyle.core.skeleton import Skeleton
-from elastyle.errors import SkeletonMismatchError
+from elastyle.errors import ElastyleError, SkeletonMismatchError
 from elastyle.io.dataset import ClipRef, read_up
 
 log = logging.getLogger(__name__)
+
+UNREADABLE_LISTED = 3  # clips that cannot be read: the first few named in the error
 
 
 def load_motions(clips: Sequence[ClipRef], fps: float | None, up: str | None = None) -> list[Motion]:
@@ -23,10 +25,22 @@ def load_motions(clips: Sequence[ClipRef], fps: float | None, up: str | None = N
     and a Ctrl-C while it ran or shut down could leave the command waiting on it for good (its manager
     thread joined at exit) or ending killed by the signal."""
     up = up or read_up()
-    motions = []
+    motions, unreadable = [], []
     for clip in clips:
-        motion, _ = clip.read(up)
+        try:
+            motion, _ = clip.read(up)
+        except ElastyleError as error:  # every unreadable clip said at once, not one per run
+            unreadable.append(str(error))
+            continue
         motions.append(motion if fps is None else motion.resample(fps))
+    if unreadable:
+        listed = "; ".join(unreadable[:UNREADABLE_LISTED]) + (
+            "; ..." if len(unreadable) > UNREADABLE_LISTED else ""
+        )
+        raise ElastyleError(
+            f"{len(unreadable)} of {len(clips)} clip(s) could not be read: {listed}; fix them or leave them out "
+            "(--exclude NAME_GLOB)"
+        )
     if not motions:
         return motions
     # the skeleton most clips have is the reference: a stray clip of another rig is the one named

@@ -24,7 +24,7 @@ from elastyle import __version__
 from elastyle.core.body import centimetres_per_unit
 from elastyle.core.mirror import mirror
 from elastyle.errors import ElastyleError, SkeletonMismatchError
-from elastyle.io.dataset import find_clips, read_up, split_held_out
+from elastyle.io.dataset import ClipRef, find_clips, read_up, split_held_out
 from elastyle.model.autoencoder import Autoencoder
 from elastyle.model.depth import DEFAULT_WARN_CM, calibrate
 from elastyle.model.features import FeatureSpec
@@ -39,6 +39,14 @@ log = logging.getLogger(__name__)
 
 
 FEW_CLIPS = 5  # fewer training clips than this get a warning
+
+
+def _named(clip: ClipRef, pattern: str) -> bool:
+    """Whether glob `pattern` matches the clip's file name, with or without its extension, or its path (the
+    whole of it or its end: `folder/name.bvh`)."""
+    path = clip.member or clip.name
+    names = (clip.stem, os.path.basename(path), path)
+    return any(fnmatch.fnmatch(name, pattern) for name in names) or fnmatch.fnmatch(path, f"*/{pattern}")
 
 
 def train(
@@ -58,9 +66,17 @@ def train(
     rng = np.random.default_rng(config.seed)
     # a clip named twice (its folder and itself, or two paths to one file) counts once
     found = {(os.path.realpath(c.archive or c.name), c.member): c for c in find_clips(data)}
-    clips = [c for c in found.values() if not any(fnmatch.fnmatch(c.stem, p) for p in exclude)]
+    clips = [c for c in found.values() if not any(_named(c, p) for p in exclude)]
     if not clips:
         raise ElastyleError(f"{', '.join(map(str, data))}: every clip is excluded by {', '.join(exclude)}")
+    for pattern in exclude:
+        if not any(_named(c, pattern) for c in found.values()):
+            log.warning(
+                "warning: --exclude %s matches no clip (matched against each clip's file name, with or without "
+                "its extension, and its path)", pattern,
+            )  # fmt: skip
+    if exclude:
+        log.info("clips: %d of %d left out by --exclude", len(found) - len(clips), len(found))
     training, held_out = split_held_out(clips, config.holdout_every)
     clip_names = sorted(c.stem for c in training)  # recorded in checkpoints: a resume says if they differ
     if len(training) < FEW_CLIPS:
@@ -73,11 +89,16 @@ def train(
         "clips: %d for training, %d held out (takes numbered %% %d == 0, the number ending the file name; names "
         "without one, one in %d by checksum)", len(training), len(held_out), config.holdout_every, config.holdout_every,
     )  # fmt: skip
-    fps = config.fps
-    if fps is None:
-        fps = training[0].read()[0].fps
-    train_motions = load_motions(training, fps)
-    val_motions = load_motions(held_out, fps) if held_out else []
+    if not held_out:
+        log.warning(
+            "warning: no clip is held out (too few to spare one), so the model trains on every clip given, held-out "
+            "takes too: `calibrate` or a test on them reads it better than it is; give it more clips"
+        )  # fmt: skip
+    # read together, so every unreadable clip is named at once; at the first training clip's rate unless given
+    motions = load_motions([*training, *held_out], config.fps)
+    fps = config.fps or motions[0].fps
+    motions = [m if m.fps == fps else m.resample(fps) for m in motions]
+    train_motions, val_motions = motions[: len(training)], motions[len(training) :]
     skeleton = train_motions[0].skeleton
     val_motions = on_one_skeleton(skeleton, training[0].name, held_out, val_motions)
     train_motions, val_motions = at_one_size(train_motions, skeleton), at_one_size(val_motions, skeleton)
