@@ -86,7 +86,9 @@ def add_train_commands(commands: Any) -> None:
         help="size of those offsets, in standard deviations of each channel (default 0.5; shipped: 1)",
     )  # fmt: skip
     trainer.add_argument(
-        "--exclude", action="append", help="leave out clips whose name matches this glob (repeatable)"
+        "--exclude",
+        action="append",
+        help="leave out clips whose file name (with or without its extension) or path matches this glob (repeatable)",
     )
     trainer.add_argument("--fps", type=float, help="resample clips to this rate (default: the first clip's)")
     trainer.add_argument(

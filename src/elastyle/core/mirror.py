@@ -18,6 +18,7 @@ import numpy as np
 from elastyle.core.body import heading_yaw, pelvis_forward_local, yaw_matrices
 from elastyle.core.motion import Motion
 from elastyle.core.parts import subtree
+from elastyle.core.roots import moved_joints
 from elastyle.core.rotations import from_matrix
 from elastyle.core.skeleton import Skeleton, check_mirrorable
 from elastyle.types import FloatArray, IntArray
@@ -133,6 +134,10 @@ def mirror(motion: Motion, reflections: FloatArray | None = None) -> Motion:
     local_rotations[:, children] = np.swapaxes(parent_rotations, -1, -2) @ mirrored_rotations[:, children]
     delta = mirrored_positions[:, children] - mirrored_positions[:, parents[children]]
     translations[:, children] = np.einsum("tkji,tkj->tki", parent_rotations, delta)
+    # a joint held at its rest offset (a bone, not a position channel) keeps its own, so the mirror stays on the
+    # clip's rig: its partner's offset, a rig's left and right bones a little unlike, gave it position channels
+    held = sorted(set(children.tolist()) - set(moved_joints(motion, children.tolist())))
+    translations[:, held] = skeleton.offsets[held]
     return Motion(skeleton, from_matrix(local_rotations), translations, motion.fps)
 
 

@@ -48,7 +48,7 @@ def cache_folder() -> Path:
 # axes per rig (`core.mirror`); 12: the trunk's lean among the action descriptors; 13: the pelvis's height;
 # 14: which clips are held to one side (`StyleLibrary.one_sided`); 15: the head's gaze; 16: clips animated in place
 # travel as their feet say (`steps.action.clip_in_place`)
-CACHE_VERSION = 16
+CACHE_VERSION = 17
 Note = tuple[int, str]  # a logging level and the text said at it
 
 
