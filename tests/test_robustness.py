@@ -522,7 +522,8 @@ def test_eval_refuses_wrong_arguments_before_any_work(tmp_path: Path, dataset_cl
     for args, message in [
         (["--benchmark", data, "--pairs", "0"], "--pairs: must be at least 1"),
         (["--benchmark", data, "--pairs", "-1"], "--pairs: must be at least 1"),
-        (["out.bvh", "--benchmark", data], "not both"),
+        (["out.bvh", "--benchmark", data], "--benchmark takes one DATA"),  # two data folders, as a user gave
+        (["out.bvh", "--content", "c.bvh", "--style", "s.bvh", "--benchmark", data], "not both"),
         (["out.bvh", "--content", "c.bvh", "--style", "s.bvh", "--out", str(tmp_path)], "needs --benchmark"),
         # the last of several used to be taken silently
         (
@@ -728,10 +729,12 @@ def test_train_names_every_broken_clip_among_many_and_excludes_them_as_named(tmp
     assert f"{broken}:" in result.stderr and f"{wrong}:" in result.stderr and "--exclude" in result.stderr
     assert result.stderr.count("elastyle: error:") == 1 and "internal error" not in result.stderr
     assert not Path(model).exists()
-    result = _cli("train", str(tmp_path), "-o", model, "--steps", "1", "--kernel", "1", "--threads", "1",
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    result = _cli("train", str(tmp_path), "-o", model, "--steps", "1", "--kernel", "1", "--threads", str(cores + 1),
                   "--exclude", "clip_011.bvh", "--exclude", f"{tmp_path.name}/clip_012.bvh")  # fmt: skip
     assert result.returncode == 0, result.stderr
     assert "clips: 2 of 11 left out by --exclude" in result.stderr
+    assert f"--threads {cores + 1} on {cores} core(s)" in result.stderr  # more threads than cores slow it
     result = _cli("train", str(tmp_path), "-o", model, "--steps", "1", "--kernel", "1", "--threads", "1",
                   "--exclude", "clip_01[12]", "--exclude", "nothing_*", "--force")  # fmt: skip
     assert result.returncode == 0 and "--exclude nothing_* matches no clip" in result.stderr, result.stderr

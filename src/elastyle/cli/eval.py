@@ -80,6 +80,11 @@ def run_eval(args: argparse.Namespace) -> int:
         raise UsageError(
             "--units applies to OUT, --content and --style; the benchmark's dataset is in centimetres"
         )
+    if args.benchmark and args.output and not (args.content or args.style):
+        raise UsageError(
+            f"--benchmark takes one DATA, a folder or zip holding both the takes its classifiers train on and the "
+            f"held-out takes (numbered % 5 == 0) it pairs, got {args.output} besides: put them in one folder"
+        )
     if args.benchmark and (args.output or args.content or args.style):
         raise UsageError("give OUT.bvh --content C.bvh --style S.bvh, or --benchmark DATA, not both")
     if args.out and not args.benchmark:

@@ -116,7 +116,9 @@ def score_pairs(
     for pair in pairs:
         library = prepare_style(model, [pair.style_motion], [pair.style.name], config.mirror_style)
         started = time.perf_counter()
-        output = transfer(pair.content_motion, library, config, model=model).motion
+        output = transfer(
+            pair.content_motion, library, config, model=model, content_name=pair.content.name
+        ).motion
         seconds.append(time.perf_counter() - started)
         figures.append(transfer_figures(output, pair.content_motion, pair.style_motion))
         if recognisers is not None:

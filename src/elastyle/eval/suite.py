@@ -107,6 +107,21 @@ def described(motion: Motion, model: StyleModel) -> np.ndarray:
     return describe(model.on_model_hierarchy(motion).resample(model.fps), model.features)
 
 
+class _SaidOnce(logging.Filter):
+    """Lets each note or warning through the first time its text comes."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.said: set[str] = set()
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        text = record.getMessage()
+        if text in self.said:
+            return False
+        self.said.add(text)
+        return True
+
+
 def run_benchmark(data: str, model: StyleModel, max_pairs: int = 24) -> dict[str, Any]:
     """Every method of `VARIANTS` on every set's pairs (at most `max_pairs` each)."""
     sets = benchmark_pairs(data, max_pairs)
@@ -115,11 +130,19 @@ def run_benchmark(data: str, model: StyleModel, max_pairs: int = 24) -> dict[str
         break
     classifiers = train_classifiers(data, model)
     rows = []
-    for name, config in VARIANTS.items():
-        for set_name, pairs in sets.items():
-            log.info("benchmark: %s, %s", name, set_name)
-            scores = score_pairs(pairs, model, config, classifiers) if pairs else {}
-            rows.append({"method": name, "set": set_name, "pairs": len(pairs), **scores})
+    said = _SaidOnce()  # each method transfers the same pairs: a clip's note is printed once, not per method
+    handlers = [*logging.getLogger().handlers, *logging.getLogger("elastyle").handlers]
+    for handler in handlers:
+        handler.addFilter(said)
+    try:
+        for name, config in VARIANTS.items():
+            for set_name, pairs in sets.items():
+                log.info("benchmark: %s, %s", name, set_name)
+                scores = score_pairs(pairs, model, config, classifiers) if pairs else {}
+                rows.append({"method": name, "set": set_name, "pairs": len(pairs), **scores})
+    finally:
+        for handler in handlers:
+            handler.removeFilter(said)
     return {
         "pairs": {
             name: [{"content": p.content.stem, "style": p.style.stem} for p in pairs]

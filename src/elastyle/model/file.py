@@ -399,7 +399,7 @@ class StyleModel:
             )
             return (
                 f"note: {what}: joint names differ from the model's ({renamed[0]} for {renamed[1]}, ...), but "
-                "its hierarchy, limbs and rest pose are the model's: read joint by joint in that order"
+                "its hierarchy and limbs are the model's: read joint by joint in that order"
             )
         rooted = with_added_roots(self.skeleton, motion)
         if rooted is not None:

@@ -39,6 +39,7 @@ log = logging.getLogger(__name__)
 
 
 FEW_CLIPS = 5  # fewer training clips than this get a warning
+PROGRESS_LINE_S = 30.0  # without a progress bar (not a terminal), a line at least this often
 
 
 def _named(clip: ClipRef, pattern: str) -> bool:
@@ -235,6 +236,7 @@ def train(
     val_loss = float("nan")
     train_loss = float("nan")
     stop = StopOnInterrupt()  # Ctrl-C ends training after the step under way, with a checkpoint
+    last_line_s = elapsed_before  # when the last progress line was said (seconds of training)
     try:
         while (
             step < budget_steps
@@ -282,17 +284,18 @@ def train(
                 if math.isfinite(val_loss):
                     shown["held_out"] = f"{val_loss:.4f}"
                 bar.set_postfix(shown, refresh=False)
-            if step % config.checkpoint_every == 0:
-                spent = elapsed_before + time.perf_counter() - started
-                saved = save_checkpoint(
-                    checkpoint_path, network, optimizer, step, spent, config, clip_names, required=False
-                )
-                if saved and (bar is None or bar.disable):  # no bar (not a terminal): a line per checkpoint
-                    held = f", held-out {val_loss:.4f}" if math.isfinite(val_loss) else ""
-                    log.info(
-                        "step %d, %.1f min: loss %.4f%s (checkpoint %s)",
-                        step, spent / 60, train_loss, held, checkpoint_path,
-                    )  # fmt: skip
+            spent = elapsed_before + time.perf_counter() - started
+            saved = step % config.checkpoint_every == 0 and save_checkpoint(
+                checkpoint_path, network, optimizer, step, spent, config, clip_names, required=False
+            )
+            # no bar (not a terminal): a line per checkpoint, and at least every `PROGRESS_LINE_S`
+            if (bar is None or bar.disable) and (saved or spent - last_line_s >= PROGRESS_LINE_S):
+                last_line_s = spent
+                held = f", held-out {val_loss:.4f}" if math.isfinite(val_loss) else ""
+                log.info(
+                    "step %d, %.1f min: loss %.4f%s%s",
+                    step, spent / 60, train_loss, held, f" (checkpoint {checkpoint_path})" if saved else "",
+                )  # fmt: skip
     finally:
         stop.release()
     if bar is not None:
