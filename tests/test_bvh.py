@@ -101,6 +101,12 @@ def test_a_file_is_written_with_its_line_endings_encoding_frame_time_and_offsets
     assert written.count("\r\n") == written.count("\n") and "\r\n" in written
     assert "Frame Time: 0.00833333\r\n" in written and "OFFSET 111.976680 " in written
     assert "\r" not in bvh_text(*parse_bvh(THREE_CHANNEL_BVH.encode(), "unix.bvh"))  # Unix stays Unix
+    # its indentation too (two spaces came back as tabs)
+    assert "\n  JOINT spine\n  {\n    OFFSET" in bvh_text(
+        *parse_bvh(THREE_CHANNEL_BVH.encode(), "spaces.bvh")
+    )
+    tabbed = THREE_CHANNEL_BVH.replace("  ", "\t")
+    assert "\n\tJOINT spine\n\t{\n\t\tOFFSET" in bvh_text(*parse_bvh(tabbed.encode(), "tabs.bvh"))
     classic = bvh_text(*parse_bvh(THREE_CHANNEL_BVH.replace("\n", "\r").encode(), "mac.bvh"))
     assert "\n" not in classic and classic.count("\r") == THREE_CHANNEL_BVH.count(
         "\n"

@@ -31,6 +31,7 @@ class BvhLayout(NamedTuple):
     angles_low: where a wrapping file's angles start, -180 or 0 degrees.
     newline: the file's line ending, "\n", "\r\n" (Windows tools') or "\r" (classic Mac OS's), which a
              clip written in it keeps.
+    indent: the file's indentation of one level of the hierarchy (a tab, some spaces, or none), kept likewise.
     encoding: the file's text encoding, "utf-8", "utf-8-sig" (with a byte-order mark), "utf-16" (with its
         byte-order mark; written in the machine's byte order, little-endian on x86 and ARM) or "latin-1" (a
         file that is not UTF-8), kept likewise.
@@ -44,6 +45,7 @@ class BvhLayout(NamedTuple):
     angles_low: float = -180.0
     newline: str = "\n"
     encoding: str = "utf-8"
+    indent: str = "\t"
 
     @staticmethod
     def default(skeleton: Skeleton, fps: float, moving: Sequence[int] = ()) -> BvhLayout:

@@ -57,6 +57,18 @@ def _newline(text: str) -> str:
     return "\r" if "\r" in text and "\n" not in text else "\n"
 
 
+def _indent(text: str) -> str:
+    """A file's indentation of one hierarchy level: the leading blanks of its first OFFSET line (the root's,
+    one level in; none where the file indents nothing), a tab for a file without one."""
+    for line in text.splitlines():
+        stripped = line.lstrip(" \t")
+        if stripped.startswith("OFFSET"):
+            return line[: len(line) - len(stripped)]
+        if stripped.startswith("MOTION"):
+            break
+    return "\t"
+
+
 def read_input(path: str | os.PathLike[str]) -> bytes:
     """A file's bytes, once `io.files.input_problem` has found nothing against reading it (a `BvhError`
     naming the file otherwise)."""
@@ -106,7 +118,7 @@ def parse_bvh(data: bytes, name: str) -> tuple[Motion, BvhLayout]:
     wrap, low = _angle_range(channels, motion_values)
     layout = BvhLayout(
         tuple(channels), frame_time_s, first_values=_first_values(channels, motion_values),
-        angles_wrap=wrap, angles_low=low, newline=_newline(text), encoding=encoding,
+        angles_wrap=wrap, angles_low=low, newline=_newline(text), encoding=encoding, indent=_indent(text),
     )  # fmt: skip
     return motion, layout
 

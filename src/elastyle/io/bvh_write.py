@@ -219,19 +219,22 @@ def _write_joint(
     stack: list[tuple[int, int, bool]] = [(joint, depth, True)]  # (joint, depth, opening)
     while stack:
         joint, depth, opening = stack.pop()
-        indent = "\t" * depth
+        unit = layout.indent
+        indent = unit * depth
         if not opening:
             if not np.any(np.isnan(skeleton.end_sites[joint])):
-                out.write(f"{indent}\tEnd Site\n{indent}\t{{\n")
-                out.write(f"{indent}\t\tOFFSET {_format_vector(skeleton.end_sites[joint])}\n{indent}\t}}\n")
+                out.write(f"{indent}{unit}End Site\n{indent}{unit}{{\n")
+                out.write(
+                    f"{indent}{unit}{unit}OFFSET {_format_vector(skeleton.end_sites[joint])}\n{indent}{unit}}}\n"
+                )
             out.write(f"{indent}}}\n")
             continue
         written.append(joint)
         keyword = "ROOT" if skeleton.parents[joint] < 0 else "JOINT"
         out.write(f"{indent}{keyword} {skeleton.names[joint]}\n{indent}{{\n")
-        out.write(f"{indent}\tOFFSET {_format_vector(skeleton.offsets[joint])}\n")
+        out.write(f"{indent}{unit}OFFSET {_format_vector(skeleton.offsets[joint])}\n")
         channels = layout.channels[joint]
-        out.write(f"{indent}\tCHANNELS {len(channels)}{''.join(' ' + c for c in channels)}\n")
+        out.write(f"{indent}{unit}CHANNELS {len(channels)}{''.join(' ' + c for c in channels)}\n")
         stack.append((joint, depth, False))
         stack.extend((child, depth + 1, True) for child in reversed(list(skeleton.children(joint))))
     return written
