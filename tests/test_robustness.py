@@ -738,6 +738,10 @@ def test_train_names_every_broken_clip_among_many_and_excludes_them_as_named(tmp
     result = _cli("train", str(tmp_path), "-o", model, "--steps", "1", "--kernel", "1", "--threads", "1",
                   "--exclude", "clip_01[12]", "--exclude", "nothing_*", "--force")  # fmt: skip
     assert result.returncode == 0 and "--exclude nothing_* matches no clip" in result.stderr, result.stderr
+    # one clip, a held-out take: trained on all the same, and said so
+    result = _cli("train", str(tmp_path / "clip_005.bvh"), "-o", model, "--steps", "1", "--kernel", "1",
+                  "--threads", "1", "--force")  # fmt: skip
+    assert result.returncode == 0 and "no clip is held out" in result.stderr, result.stderr
 
 
 def test_train_refuses_clips_of_one_skeleton_in_two_rest_poses(tmp_path: Path) -> None:
