@@ -59,6 +59,14 @@ def test_mirror_twice_is_identity_and_reflects_fk(walk_clip) -> None:  # type: i
     twice = mirror(mirrored)
     np.testing.assert_allclose(twice.positions(), motion.positions(), atol=1e-4)
     np.testing.assert_allclose(twice.rotations, motion.rotations, atol=1e-6)
+    # a joint that moves on one side only: its partner takes its motion (held at its rest offset, it lost it)
+    shoulder = motion.skeleton.names.index("UpperArm_L")
+    translations = motion.translations.copy()
+    translations[:, shoulder, 1] += 3.0 * np.sin(np.arange(motion.num_frames) / 5.0)
+    moving = Motion(motion.skeleton, motion.rotations, translations, motion.fps)
+    reflected = moving.positions()[:, partner] * np.array([-1.0, 1.0, 1.0])
+    np.testing.assert_allclose(mirror(moving).positions(), reflected, atol=0.1)
+    np.testing.assert_allclose(mirror(mirror(moving)).positions(), moving.positions(), atol=1e-4)
 
 
 def test_a_one_handed_gesture_is_mirrored_on_the_same_axes_as_a_walk(dataset_clips) -> None:  # type: ignore[no-untyped-def]

@@ -723,25 +723,29 @@ def test_train_names_every_broken_clip_among_many_and_excludes_them_as_named(tmp
     broken.write_text(GOOD.rstrip("\n").rsplit(" ", 3)[0] + "\n")  # its last row cut short
     wrong = tmp_path / "clip_012.bvh"
     wrong.write_text(GOOD.replace("0.0", "zero", 1))
+    for take in (13, 14, 16, 17):  # more broken clips: every one is named, not the first few
+        (tmp_path / f"clip_{take:03d}.bvh").write_text(GOOD.replace("0.0", "zero", 1))
     model = str(tmp_path / "m.npz")
     result = _cli("train", str(tmp_path), "-o", model, "--steps", "1", "--kernel", "1")
-    assert result.returncode == 1 and "2 of 11 clip(s) could not be read" in result.stderr, result.stderr
+    assert result.returncode == 1 and "6 of 15 clip(s) could not be read" in result.stderr, result.stderr
     assert f"{broken}:" in result.stderr and f"{wrong}:" in result.stderr and "--exclude" in result.stderr
+    assert all(f"clip_{take:03d}.bvh:" in result.stderr for take in (13, 14, 16, 17))
     assert result.stderr.count("elastyle: error:") == 1 and "internal error" not in result.stderr
     assert not Path(model).exists()
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
     result = _cli("train", str(tmp_path), "-o", model, "--steps", "1", "--kernel", "1", "--threads", str(cores + 1),
-                  "--exclude", "clip_011.bvh", "--exclude", f"{tmp_path.name}/clip_012.bvh")  # fmt: skip
+                  "--exclude", "clip_011.bvh", "--exclude", f"{tmp_path.name}/clip_012.bvh",
+                  "--exclude", "clip_01[3-7]")  # fmt: skip
     assert result.returncode == 0, result.stderr
-    assert "clips: 2 of 11 left out by --exclude" in result.stderr
+    assert "clips: 6 of 15 left out by --exclude" in result.stderr
     assert f"--threads {cores + 1} on {cores} core(s)" in result.stderr  # more threads than cores slow it
     result = _cli("train", str(tmp_path), "-o", model, "--steps", "1", "--kernel", "1", "--threads", "1",
-                  "--exclude", "clip_01[12]", "--exclude", "nothing_*", "--force")  # fmt: skip
+                  "--exclude", "clip_01[1-7]", "--exclude", "nothing_*", "--force")  # fmt: skip
     assert result.returncode == 0 and "--exclude nothing_* matches no clip" in result.stderr, result.stderr
     # one clip, a held-out take: trained on all the same, and said so
     result = _cli("train", str(tmp_path / "clip_005.bvh"), "-o", model, "--steps", "1", "--kernel", "1",
                   "--threads", "1", "--force")  # fmt: skip
-    assert result.returncode == 0 and "no clip is held out" in result.stderr, result.stderr
+    assert result.returncode == 0 and "every clip given is a held-out take" in result.stderr, result.stderr
 
 
 def test_train_refuses_clips_of_one_skeleton_in_two_rest_poses(tmp_path: Path) -> None:

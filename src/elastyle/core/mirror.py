@@ -136,7 +136,10 @@ def mirror(motion: Motion, reflections: FloatArray | None = None) -> Motion:
     translations[:, children] = np.einsum("tkji,tkj->tki", parent_rotations, delta)
     # a joint held at its rest offset (a bone, not a position channel) keeps its own, so the mirror stays on the
     # clip's rig: its partner's offset, a rig's left and right bones a little unlike, gave it position channels
-    held = sorted(set(children.tolist()) - set(moved_joints(motion, children.tolist())))
+    moving = set(moved_joints(motion, list(range(skeleton.num_joints))))
+    held = [
+        j for j in children.tolist() if j not in moving and int(partner[j]) not in moving
+    ]  # and its partner
     translations[:, held] = skeleton.offsets[held]
     return Motion(skeleton, from_matrix(local_rotations), translations, motion.fps)
 

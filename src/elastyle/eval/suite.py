@@ -130,9 +130,11 @@ def run_benchmark(data: str, model: StyleModel, max_pairs: int = 24) -> dict[str
         break
     classifiers = train_classifiers(data, model)
     rows = []
-    said = _SaidOnce()  # each method transfers the same pairs: a clip's note is printed once, not per method
-    handlers = [*logging.getLogger().handlers, *logging.getLogger("elastyle").handlers]
-    for handler in handlers:
+    # each method transfers the same pairs: a clip's note is printed once, not per method (each handler its own)
+    handlers = [
+        (h, _SaidOnce()) for h in {*logging.getLogger().handlers, *logging.getLogger("elastyle").handlers}
+    ]
+    for handler, said in handlers:
         handler.addFilter(said)
     try:
         for name, config in VARIANTS.items():
@@ -141,7 +143,7 @@ def run_benchmark(data: str, model: StyleModel, max_pairs: int = 24) -> dict[str
                 scores = score_pairs(pairs, model, config, classifiers) if pairs else {}
                 rows.append({"method": name, "set": set_name, "pairs": len(pairs), **scores})
     finally:
-        for handler in handlers:
+        for handler, said in handlers:
             handler.removeFilter(said)
     return {
         "pairs": {

@@ -15,8 +15,6 @@ from elastyle.io.dataset import ClipRef, read_up
 
 log = logging.getLogger(__name__)
 
-UNREADABLE_LISTED = 3  # clips that cannot be read: the first few named in the error
-
 
 def load_motions(clips: Sequence[ClipRef], fps: float | None, up: str | None = None) -> list[Motion]:
     """Read clips, resampled to `fps`; all must share one skeleton. up: how their up axis is read
@@ -34,12 +32,9 @@ def load_motions(clips: Sequence[ClipRef], fps: float | None, up: str | None = N
             continue
         motions.append(motion if fps is None else motion.resample(fps))
     if unreadable:
-        listed = "; ".join(unreadable[:UNREADABLE_LISTED]) + (
-            "; ..." if len(unreadable) > UNREADABLE_LISTED else ""
-        )
         raise ElastyleError(
-            f"{len(unreadable)} of {len(clips)} clip(s) could not be read: {listed}; fix them or leave them out "
-            "(--exclude NAME_GLOB)"
+            f"{len(unreadable)} of {len(clips)} clip(s) could not be read: {'; '.join(unreadable)}; fix them or "
+            "leave them out (--exclude NAME_GLOB)"
         )
     if not motions:
         return motions

@@ -24,7 +24,7 @@ from elastyle import __version__
 from elastyle.core.body import centimetres_per_unit
 from elastyle.core.mirror import mirror
 from elastyle.errors import ElastyleError, SkeletonMismatchError
-from elastyle.io.dataset import ClipRef, find_clips, read_up, split_held_out
+from elastyle.io.dataset import ClipRef, find_clips, is_held_out, read_up, split_held_out
 from elastyle.model.autoencoder import Autoencoder
 from elastyle.model.depth import DEFAULT_WARN_CM, calibrate
 from elastyle.model.features import FeatureSpec
@@ -90,10 +90,11 @@ def train(
         "clips: %d for training, %d held out (takes numbered %% %d == 0, the number ending the file name; names "
         "without one, one in %d by checksum)", len(training), len(held_out), config.holdout_every, config.holdout_every,
     )  # fmt: skip
-    if not held_out:
+    if not held_out and any(is_held_out(c, config.holdout_every) for c in training):
         log.warning(
-            "warning: no clip is held out (too few to spare one), so the model trains on every clip given, held-out "
-            "takes too: `calibrate` or a test on them reads it better than it is; give it more clips"
+            "warning: every clip given is a held-out take (numbered %% %d == 0), so the model trains on them: "
+            "`calibrate` or a test on them reads it better than it is; give it other takes too",
+            config.holdout_every,
         )  # fmt: skip
     # read together, so every unreadable clip is named at once; at the first training clip's rate unless given
     motions = load_motions([*training, *held_out], config.fps)
