@@ -541,3 +541,35 @@ def test_labels_tell_every_clip_apart() -> None:
     assert distinct_labels(["C:\\clips\\walk.bvh", "D:\\clips\\walk.bvh", "D:\\run.bvh"]) == [
         "C:/clips/walk.bvh", "D:/clips/walk.bvh", "run.bvh",
     ]  # fmt: skip
+
+
+def test_clips_walk_away_side_by_side_and_overlaid_start_together(
+    dataset_clips: list[ClipRef], serve: Callable[[dict[str, Any]], str], tmp_path: Path
+) -> None:
+    """Two takes that walk opposite ways in their files (one turned half round and set 5 m aside)
+    are turned to walk the same way, away from the camera, in the viewer's payload as in `render`; overlaid,
+    each starts where the other does (the turned take's figure had been drawn off the floor, out of the picture)."""
+    from dataclasses import replace
+
+    walk, other = (
+        clip_named(dataset_clips, f"dataset-2_walk_{n}").read()[0].slice(0, 150)
+        for n in ("normal_005", STYLE_CLIP[15:])
+    )
+    rotations, translations = other.rotations.copy(), other.translations.copy()
+    rotations[:, 0] = [0.0, np.pi, 0.0]  # the static root turned half round, moved 5 m aside
+    translations[:, 0] = [500.0, 0.0, 0.0]
+    turned = replace(other, rotations=rotations, translations=translations)
+    payload = build_payload([walk, turned], ["walk.bvh", "turned.bvh"])
+    for clip in payload["clips"]:
+        points = np.reshape(clip["positions"], (clip["num_frames"], -1, 3))
+        travel = points[-1, clip["pelvis"]] - points[0, clip["pelvis"]]
+        assert travel[2] < -0.9 * np.linalg.norm(travel[[0, 2]]), travel  # away from the camera
+    if not CHROMIUM.exists():
+        pytest.skip(f"{CHROMIUM} not found: install chromium (apt-get install chromium) for the browser test")
+    Image = pytest.importorskip("PIL.Image", reason="reading the screenshot needs Pillow")
+    shot = tmp_path / "overlay.png"
+    url = serve(payload) + "?overlay=1&t=2&paused=1"
+    run_chromium(url, tmp_path / "profile-overlay", f"--screenshot={shot}")
+    scene = np.asarray(Image.open(shot).convert("RGB"), dtype=np.float64)[100 : WINDOW[1] - 60]
+    for colour in ("#1f6fd1", "#d1431f", "#7b4fd8", "#e08a1e"):  # left and right bones of both clips
+        assert colour_pixels(scene, colour) > 40, colour

@@ -24,7 +24,7 @@ import numpy as np
 from elastyle.core.body import centimetres_per_unit
 from elastyle.core.motion import Motion
 from elastyle.errors import ElastyleError
-from elastyle.viewer.render import drawn_points, grid_spacing, ground_height
+from elastyle.viewer.render import drawn_points, grid_spacing, ground_height, walking_away
 
 log = logging.getLogger("elastyle")
 
@@ -76,26 +76,25 @@ def build_payload(
     """JSON-ready data for the page: per clip its label, fps, bones, sides, pelvis path and positions."""
     if len(motions) != len(labels):
         raise ValueError(f"{len(motions)} motions but {len(labels)} labels")
-    clips = []
-    height = 0.0
-    for motion, label in zip(motions, labels):
-        points, pairs, sides = drawn_points(motion)  # the joints, then the End Sites
-        positions = points * centimetres_per_unit(motion.skeleton)  # (T, J + E, 3) cm, +Y up
-        ground = ground_height(motion.skeleton, positions)
-        height = max(height, float(positions[..., 1].max()) - ground)
-        clips.append(
-            {
-                "label": label,
-                "fps": float(motion.fps),
-                "num_frames": motion.num_frames,
-                "pelvis": motion.skeleton.pelvis,
-                "ground": ground,
-                "bones": pairs.tolist(),  # (B, 2) parent, child
-                "sides": sides.tolist(),  # (J + E,) 0 centre, 1 left, 2 right
-                "positions": np.round(positions, 2).ravel().tolist(),  # (T * (J + E) * 3,)
-                **_contacts(motion),
-            }
-        )
+    drawn = [drawn_points(motion) for motion in motions]  # each clip's joints, then its End Sites
+    positions = [points * centimetres_per_unit(m.skeleton) for m, (points, _, _) in zip(motions, drawn)]
+    grounds = [ground_height(m.skeleton, p) for m, p in zip(motions, positions)]  # (T, J + E, 3) cm, +Y up
+    height = max((float(p[..., 1].max()) - g for p, g in zip(positions, grounds)), default=0.0)
+    turned = walking_away(positions, [m.skeleton.pelvis for m in motions], height if height > 0 else 1.0)
+    clips = [
+        {
+            "label": label,
+            "fps": float(motion.fps),
+            "num_frames": motion.num_frames,
+            "pelvis": motion.skeleton.pelvis,
+            "ground": ground,
+            "bones": pairs.tolist(),  # (B, 2) parent, child
+            "sides": sides.tolist(),  # (J + E,) 0 centre, 1 left, 2 right
+            "positions": np.round(points, 2).ravel().tolist(),  # (T * (J + E) * 3,)
+            **_contacts(motion),
+        }
+        for motion, label, (_, pairs, sides), points, ground in zip(motions, labels, drawn, turned, grounds)
+    ]
     height = height if height > 0 else 1.0
     if explain is not None:  # the page gets the output's label: no more of the user's folders goes out
         private = ("output_path", "style_paths", "working_folder")

@@ -91,6 +91,37 @@ def project(points: FloatArray) -> FloatArray:
     return np.stack([screen_x, screen_y], axis=-1)
 
 
+def walking_away(clips: Sequence[FloatArray], pelvises: Sequence[int], height: float) -> list[FloatArray]:
+    """Clips' drawn points (T_k, P_k, 3), cm, +Y up, each turned about the vertical through its first frame's
+    pelvis (joint `pelvises[k]`) so that its travel (first frame to last) goes away from the camera (towards
+    -Z, as both the viewer's and `render_clips`' cameras look): clips that walk different ways in their files
+    walk the same way side by side. Clips travelling within 45 degrees of the first travelling clip's way take
+    its turn, so a content and its output keep their own small difference; a clip that hardly travels (under a
+    third of `height`, the tallest figure's) takes that turn too, or none where no clip travels."""
+    angles = []
+    for points, pelvis in zip(clips, pelvises):
+        travel = points[-1, pelvis] - points[0, pelvis]
+        angles.append(
+            None if math.hypot(travel[0], travel[2]) < height / 3 else math.atan2(travel[0], travel[2])
+        )
+    first = next((angle for angle in angles if angle is not None), None)
+    if first is None:
+        return list(clips)
+    turned_clips = []
+    for points, pelvis, angle in zip(clips, pelvises, angles):
+        if angle is None or abs(math.atan2(math.sin(angle - first), math.cos(angle - first))) < math.pi / 4:
+            angle = first
+        turn = math.pi - angle
+        cosine, sine = math.cos(turn), math.sin(turn)
+        origin = points[0, pelvis]
+        x, z = points[..., 0] - origin[0], points[..., 2] - origin[2]
+        turned = points.copy()
+        turned[..., 0] = origin[0] + x * cosine + z * sine
+        turned[..., 2] = origin[2] - x * sine + z * cosine
+        turned_clips.append(turned)
+    return turned_clips
+
+
 def sample_positions(positions: FloatArray, clip_fps: float, times_s: FloatArray) -> FloatArray:
     """Joint positions (T, J, 3) at times (N,) seconds, linear between frames; held after the last frame."""
     return interpolate_rows(positions, times_s * clip_fps)  # (N, J, 3)
@@ -191,6 +222,9 @@ def render_clips(
     grounds = [ground_height(m.skeleton, p) for m, p in zip(motions, positions)]
     height = max(float(p[..., 1].max()) - g for p, g in zip(positions, grounds))
     height = height if height > 0 else 1.0
+    positions = walking_away(
+        positions, [m.skeleton.pelvis for m in motions], height
+    )  # as the viewer turns them
     spacing = grid_spacing(height)
 
     # 2. One figure, one axes per panel; artists are created once and updated per frame.
