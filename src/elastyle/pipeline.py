@@ -394,9 +394,7 @@ def _transfer(
     root_applied = np.clip(strength_out, 0.0, 1.0)  # (N,)
     _by_strength(keep, automatic, strength_out, config.decode)
     lowest_ground = _lowest_ground(working, world[1])  # none without feet
-    root_moved = np.zeros(
-        (len(strength_out), 3)
-    )  # (N, 3) world: the clean-up's move of the pelvis on the ground
+    root_moved = np.zeros((len(strength_out), 3))  # (N, 3) world: the clean-up's ground move of the pelvis
     if config.cleanup:
         # on the content's floor (toes the style's statistics swing through it are lifted); where the style's
         # statistics alone colour the content (the fallback, the statistics methods) its legs step as the
