@@ -245,6 +245,8 @@ def test_headless_browser_plays_and_draws_skeletons(
     names = ["dataset-2_walk_normal_005", STYLE_CLIP]
     motions = [clip_named(dataset_clips, n).read()[0].slice(0, 150) for n in names]
     explain = read_explain(write_explain(tmp_path / "explain.json", f"some/where/{STYLE_CLIP}.bvh"))
+    patches = explain["styles"][0]["patches"]  # from 3 s every part keeps the content's own action
+    patches.append(dict(patches[1], output_start_s=3.0, content_start_s=3.0, mode="content"))
     url = serve(build_payload(motions, [n + ".bvh" for n in names], explain))
 
     # 1. The page loads the clips and plays: the frame counter has moved after 2.5 s of page time.
@@ -269,6 +271,8 @@ def test_headless_browser_plays_and_draws_skeletons(
     for colour in ("#1f6fd1", "#d1431f", "#7b4fd8", "#e08a1e"):  # left and right bones of both clips
         assert colour_pixels(scene, colour) > 40, colour
     assert colour_pixels(scene, "#cfcfca", 6.0) > 200  # ground grid
+    # the explain strip: the content's own action in grey, not in the style clip's colour as the swaps
+    assert colour_pixels(pixels, "#c8c8c8", 2.0) > 1000
 
 
 def test_payload_carries_foot_contacts(dataset_clips: list[ClipRef]) -> None:
@@ -475,29 +479,21 @@ def test_the_floor_lies_under_the_feet_whatever_else_hangs_low(dataset_clips: li
 def test_view_warns_of_an_explain_file_written_for_another_output(
     three_channel_bvh: Path, tmp_path: Path
 ) -> None:
-    """An explain file names the output it was written for; shown beside other clips, it is said (before:
-    its patches were drawn on a clip they do not describe without a word)."""
+    """An explain file names the output it was written for; shown beside other clips, it is said, in the
+    terminal and on the page (before: its patches were drawn on a clip they do not describe without a word)."""
     explain = write_explain(tmp_path / "explain.json", "style.bvh")
     record = json.loads(explain.read_text())
     record["output"] = "/some/folder/styled_walk.bvh"
     explain.write_text(json.dumps(record))
     assert read_explain(explain)["output"] == "styled_walk.bvh"  # the name only: no folder goes out
-    command = [sys.executable, "-c", VIEW_HARNESS, "view", str(three_channel_bvh), "--explain", str(explain),
-               "--no-browser", "--port", "0"]  # fmt: skip
-    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        assert process.stdout is not None and process.stderr is not None
-        ready, _, _ = select.select([process.stdout], [], [], 30)
-        assert ready, "the view command printed nothing within 30 s"
-        assert "http://127.0.0.1:" in process.stdout.readline()
-    finally:
-        process.terminate()
-        process.wait(timeout=10)
-    stderr = process.stderr.read()
+    stderr, payload = _view_payload(str(three_channel_bvh), "--explain", str(explain))
     assert (
         "explain.json was written for /some/folder/styled_walk.bvh, which is not among the clips shown"
         in stderr
     )
+    # and on the page, by the file's name alone (it said nothing there)
+    warning = payload["explain"]["warning"]
+    assert warning.startswith("written for styled_walk.bvh, which is not among") and "/some" not in warning
 
 
 def test_view_tells_clips_apart_under_folders_of_one_name_and_style_clips_of_one_name(

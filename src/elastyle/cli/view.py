@@ -130,6 +130,11 @@ def run_view(args: argparse.Namespace) -> int:
                 "warning: %s was written for %s, which is not among the clips shown: its patches are drawn on "
                 "their timeline all the same", args.explain, written_for,
             )  # fmt: skip
+            # said on the page too, naming the file alone (no folder of the user's goes out)
+            explain["warning"] = (
+                f"written for {Path(written_for).name}, which is not among the clips shown: its patches are drawn "
+                "on their timeline all the same"
+            )
     if explain is not None:
         _shown_style_clips(explain, labels, paths)
     payload = build_payload(motions, labels, explain)
