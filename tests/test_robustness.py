@@ -20,6 +20,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from elastyle import BvhError, Motion, read_bvh, write_bvh
+from elastyle.core.threads import usable_cores
 from elastyle.io.bvh_read import parse_bvh
 from elastyle.io.dataset import ClipRef
 from tests.conftest import THREE_CHANNEL_BVH, clip_named
@@ -732,7 +733,7 @@ def test_train_names_every_broken_clip_among_many_and_excludes_them_as_named(tmp
     assert all(f"clip_{take:03d}.bvh:" in result.stderr for take in (13, 14, 16, 17))
     assert result.stderr.count("elastyle: error:") == 1 and "internal error" not in result.stderr
     assert not Path(model).exists()
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    cores = usable_cores()
     result = _cli("train", str(tmp_path), "-o", model, "--steps", "1", "--kernel", "1", "--threads", str(cores + 1),
                   "--exclude", "clip_011.bvh", "--exclude", f"{tmp_path.name}/clip_012.bvh",
                   "--exclude", "clip_01[3-7]")  # fmt: skip

@@ -20,7 +20,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
-from elastyle.core.threads import stop_workers
+from elastyle.core.threads import stop_workers, usable_cores
 from elastyle.errors import ElastyleError, OutputError, UsageError
 
 if TYPE_CHECKING:
@@ -183,7 +183,7 @@ def run_local(job: Job, contents: list[str], targets: list[Path], jobs: int | No
     import os
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    workers = max(1, min(len(contents), jobs or os.cpu_count() or 1))
+    workers = max(1, min(len(contents), jobs or usable_cores()))
     context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
     with (
         output_folder(targets),

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import logging
 import math
-import os
 from typing import Any
 
 from elastyle.errors import ElastyleError, OutputError, UsageError
@@ -182,7 +181,9 @@ def _command_train(args: argparse.Namespace) -> int:
     from elastyle.training.loop import train
 
     if args.threads:
-        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+        from elastyle.core.threads import usable_cores
+
+        cores = usable_cores()
         if args.threads > cores:
             log.warning(
                 "warning: --threads %d on %d core(s): threads beyond the cores wait on each other and slow "

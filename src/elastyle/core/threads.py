@@ -55,6 +55,13 @@ def one_blas_thread(function: Callable[Params, Result]) -> Callable[Params, Resu
     return limited
 
 
+def usable_cores() -> int:
+    """The cores this process may run on: its CPU affinity where the system tells it, else the machine's."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
 def stop_workers(pool: Executor) -> None:
     """A process pool's queued tasks dropped and its working processes ended now (on Ctrl-C or a kill: the
     command's, which then reports it; waiting would run every queued task first)."""

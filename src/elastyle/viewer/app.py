@@ -80,7 +80,8 @@ def build_payload(
     positions = [points * centimetres_per_unit(m.skeleton) for m, (points, _, _) in zip(motions, drawn)]
     grounds = [ground_height(m.skeleton, p) for m, p in zip(motions, positions)]  # (T, J + E, 3) cm, +Y up
     height = max((float(p[..., 1].max()) - g for p, g in zip(positions, grounds)), default=0.0)
-    turned = walking_away(positions, [m.skeleton.pelvis for m in motions], height if height > 0 else 1.0)
+    height = height if height > 0 else 1.0
+    turned = walking_away(positions, [m.skeleton.pelvis for m in motions], height)
     clips = [
         {
             "label": label,
@@ -95,7 +96,6 @@ def build_payload(
         }
         for motion, label, (_, pairs, sides), points, ground in zip(motions, labels, drawn, turned, grounds)
     ]
-    height = height if height > 0 else 1.0
     if explain is not None:  # the page gets the output's label: no more of the user's folders goes out
         private = ("output_path", "style_paths", "working_folder")
         explain = {key: value for key, value in explain.items() if key not in private}
